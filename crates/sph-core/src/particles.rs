@@ -56,14 +56,24 @@ impl<D: Dim> ParticleSet<D> {
         ];
         for (field, found) in lens {
             if found != n {
-                return Err(CoreError::LengthMismatch { field, expected: n, found });
+                return Err(CoreError::LengthMismatch {
+                    field,
+                    expected: n,
+                    found,
+                });
             }
         }
         if let Some(index) = self.positions.iter().position(|x| !x.is_finite()) {
-            return Err(CoreError::NonFinite { field: "positions", index });
+            return Err(CoreError::NonFinite {
+                field: "positions",
+                index,
+            });
         }
         if let Some(index) = self.velocities.iter().position(|x| !x.is_finite()) {
-            return Err(CoreError::NonFinite { field: "velocities", index });
+            return Err(CoreError::NonFinite {
+                field: "velocities",
+                index,
+            });
         }
         Ok(())
     }
@@ -80,9 +90,18 @@ mod tests {
         let mut p = ParticleSet::<D2>::from_positions(vec![DVec2::ZERO, DVec2::ONE], 1.0, 1.0);
         assert_eq!(p.validate(), Ok(()));
         p.velocities[1].x = f64::NAN;
-        assert_eq!(p.validate(), Err(CoreError::NonFinite { field: "velocities", index: 1 }));
+        assert_eq!(
+            p.validate(),
+            Err(CoreError::NonFinite {
+                field: "velocities",
+                index: 1
+            })
+        );
         p.masses.pop();
         let e = p.validate().unwrap_err();
-        assert_eq!(e.to_string(), "field `masses` has 1 entries, expected 2 (one per particle)");
+        assert_eq!(
+            e.to_string(),
+            "field `masses` has 1 entries, expected 2 (one per particle)"
+        );
     }
 }
