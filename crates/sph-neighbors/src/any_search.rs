@@ -1,0 +1,52 @@
+use crate::{CellGrid, KdTree, NeighborError, NeighborList, NeighborSearch};
+use sph_core::Dim;
+
+/// Neighbour-search backend as named in a scene file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SearchKind {
+    /// [`CellGrid`], the default: 2–3× faster than the kd-tree in our benches.
+    #[default]
+    CellGrid,
+    /// [`KdTree`] (kiddo).
+    KdTree,
+}
+
+/// A neighbour search chosen at run time.
+#[derive(Debug)]
+pub enum AnySearch<D: Dim> {
+    /// See [`CellGrid`].
+    CellGrid(CellGrid<D>),
+    /// See [`KdTree`].
+    KdTree(KdTree<D>),
+}
+
+impl<D: Dim> AnySearch<D> {
+    /// A new, empty search of the given kind.
+    pub fn new(kind: SearchKind) -> Self {
+        match kind {
+            SearchKind::CellGrid => AnySearch::CellGrid(CellGrid::new()),
+            SearchKind::KdTree => AnySearch::KdTree(KdTree::new()),
+        }
+    }
+}
+
+impl<D: Dim> NeighborSearch<D> for AnySearch<D> {
+    fn build(&mut self, points: &[D::Vector], radius: f64) -> Result<(), NeighborError> {
+        match self {
+            AnySearch::CellGrid(s) => s.build(points, radius),
+            AnySearch::KdTree(s) => s.build(points, radius),
+        }
+    }
+    fn query(&self, points: &[D::Vector], out: &mut NeighborList) {
+        match self {
+            AnySearch::CellGrid(s) => s.query(points, out),
+            AnySearch::KdTree(s) => s.query(points, out),
+        }
+    }
+    fn radius(&self) -> f64 {
+        match self {
+            AnySearch::CellGrid(s) => s.radius(),
+            AnySearch::KdTree(s) => s.radius(),
+        }
+    }
+}

@@ -1,0 +1,230 @@
+//! Uniform cell grid with counting sort.
+//!
+//! Points are binned into cubic cells of edge `R` (the search radius) and stored in cell order
+//! (x fastest), so the three x-adjacent cells of a row are one contiguous run of memory. A query
+//! scans `3^(D−1)` such runs: 3 in 2D, 9 in 3D. 2D and 3D share this code; the only difference is
+//! the number of cell axes, a compile-time constant.
+
+use crate::search::{fill_rows, validate};
+use crate::{NeighborError, NeighborList, NeighborSearch};
+use rayon::prelude::*;
+use sph_core::{Dim, VectorOps};
+
+/// Cells along each axis are addressed with `i64`; refuse spans above this many radii.
+const MAX_SPAN: f64 = (1u64 << 50) as f64;
+
+/// Uniform-grid neighbour search (see the module docs). The default search of dgsph.
+#[derive(Clone, Debug, Default)]
+pub struct CellGrid<D: Dim> {
+    radius: f64,
+    origin: [f64; 3],
+    inv_cell: f64,
+    /// Number of cells along each axis (unused axes 1).
+    dims: [i64; 3],
+    /// Point indices in cell order.
+    sorted_idx: Vec<u32>,
+    /// Point coordinates in cell order (a copy, so runs are read contiguously).
+    sorted_pts: Vec<D::Vector>,
+    cells: CellIndex,
+}
+
+/// Where each cell's points start in the sorted arrays.
+#[derive(Clone, Debug, Default)]
+enum CellIndex {
+    #[default]
+    Empty,
+    /// One entry per cell of the bounding box (+1): `start[c]..start[c + 1]`.
+    Dense { start: Vec<u32> },
+    /// Occupied cells only, sorted by (z, y, x); `start[k]..start[k + 1]` for `keys[k]`.
+    Sparse {
+        keys: Vec<[i64; 3]>,
+        start: Vec<u32>,
+    },
+}
+
+impl<D: Dim> CellGrid<D> {
+    /// An empty grid; call [`NeighborSearch::build`] before querying.
+    pub fn new() -> Self {
+        Self {
+            radius: 0.0,
+            origin: [0.0; 3],
+            inv_cell: 0.0,
+            dims: [1; 3],
+            sorted_idx: Vec::new(),
+            sorted_pts: Vec::new(),
+            cells: CellIndex::Empty,
+        }
+    }
+
+    /// Point indices in cell order (x fastest). Reordering particles by this permutation makes
+    /// every later neighbour loop walk memory nearly in order.
+    pub fn cell_order(&self) -> &[u32] {
+        &self.sorted_idx
+    }
+
+    /// True if the grid uses the sparse (occupied cells only) index.
+    pub fn is_sparse(&self) -> bool {
+        matches!(self.cells, CellIndex::Sparse { .. })
+    }
+
+    #[inline(always)]
+    fn cell_of(&self, p: &D::Vector) -> [i64; 3] {
+        let mut c = [0i64; 3];
+        for (k, ck) in c.iter_mut().enumerate().take(D::DIM) {
+            // Saturating float-to-int conversion: far-away query points land outside the grid.
+            *ck = ((p.get(k) - self.origin[k]) * self.inv_cell).floor() as i64;
+        }
+        c
+    }
+
+    #[inline(always)]
+    fn dense_id(&self, c: [i64; 3]) -> usize {
+        (c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])) as usize
+    }
+
+    /// Range in the sorted arrays of the cells `(x_lo..=x_hi, y, z)`.
+    #[inline(always)]
+    fn run(&self, x_lo: i64, x_hi: i64, y: i64, z: i64) -> std::ops::Range<usize> {
+        match &self.cells {
+            CellIndex::Empty => 0..0,
+            CellIndex::Dense { start } => {
+                let lo = self.dense_id([x_lo, y, z]);
+                let hi = self.dense_id([x_hi, y, z]) + 1;
+                start[lo] as usize..start[hi] as usize
+            }
+            CellIndex::Sparse { keys, start } => {
+                let a = keys.partition_point(|k| cmp_zyx(k, &[x_lo, y, z]).is_lt());
+                let b = a + keys[a..].partition_point(|k| cmp_zyx(k, &[x_hi, y, z]).is_le());
+                start[a] as usize..start[b] as usize
+            }
+        }
+    }
+
+    fn collect(&self, q: &D::Vector, buf: &mut Vec<u32>) {
+        let r2 = self.radius * self.radius;
+        let c = self.cell_of(q);
+        let x_lo = (c[0].saturating_sub(1)).max(0);
+        let x_hi = (c[0].saturating_add(1)).min(self.dims[0] - 1);
+        if x_lo > x_hi {
+            return;
+        }
+        let span = |k: usize| -> (i64, i64) {
+            if k < D::DIM {
+                (
+                    c[k].saturating_sub(1).max(0),
+                    c[k].saturating_add(1).min(self.dims[k] - 1),
+                )
+            } else {
+                (0, 0)
+            }
+        };
+        let (y_lo, y_hi) = span(1);
+        let (z_lo, z_hi) = span(2);
+        for z in z_lo..=z_hi {
+            for y in y_lo..=y_hi {
+                let run = self.run(x_lo, x_hi, y, z);
+                let pts = &self.sorted_pts[run.clone()];
+                let ids = &self.sorted_idx[run];
+                for (x, &j) in pts.iter().zip(ids) {
+                    if (*x - *q).length_squared() <= r2 {
+                        buf.push(j);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn cmp_zyx(a: &[i64; 3], b: &[i64; 3]) -> std::cmp::Ordering {
+    (a[2], a[1], a[0]).cmp(&(b[2], b[1], b[0]))
+}
+
+impl<D: Dim> NeighborSearch<D> for CellGrid<D> {
+    fn build(&mut self, points: &[D::Vector], radius: f64) -> Result<(), NeighborError> {
+        validate::<D>(points, radius)?;
+        let n = points.len();
+        self.radius = radius;
+        self.inv_cell = 1.0 / radius;
+        self.sorted_idx.clear();
+        self.sorted_pts.clear();
+        if n == 0 {
+            self.cells = CellIndex::Empty;
+            self.dims = [1; 3];
+            return Ok(());
+        }
+        let (lo, hi) = points
+            .par_iter()
+            .fold(
+                || (points[0], points[0]),
+                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            )
+            .reduce(
+                || (points[0], points[0]),
+                |a, b| (a.0.min(b.0), a.1.max(b.1)),
+            );
+        self.origin = lo.to_array3();
+        self.dims = [1; 3];
+        let mut total_cells: f64 = 1.0;
+        for k in 0..D::DIM {
+            let span = (hi.get(k) - lo.get(k)) * self.inv_cell;
+            if !(span < MAX_SPAN) {
+                return Err(NeighborError::DomainTooWide {
+                    span_over_radius: span,
+                });
+            }
+            self.dims[k] = span.floor() as i64 + 1;
+            total_cells *= self.dims[k] as f64;
+        }
+
+        // Cell id of every point (dense linear id, or the (x, y, z) key for the sparse index).
+        let keys: Vec<[i64; 3]> = points.par_iter().map(|p| self.cell_of(p)).collect();
+        let dense = total_cells <= (4 * n + 1024) as f64;
+        if dense {
+            // Counting sort by linear cell id; stable, so each cell lists its points in index order.
+            let ncell = total_cells as usize;
+            let mut start = vec![0u32; ncell + 1];
+            for k in &keys {
+                start[self.dense_id(*k) + 1] += 1;
+            }
+            for c in 0..ncell {
+                start[c + 1] += start[c];
+            }
+            let mut fill = start.clone();
+            self.sorted_idx.resize(n, 0);
+            for (i, k) in keys.iter().enumerate() {
+                let c = self.dense_id(*k);
+                self.sorted_idx[fill[c] as usize] = i as u32;
+                fill[c] += 1;
+            }
+            self.cells = CellIndex::Dense { start };
+        } else {
+            self.sorted_idx.extend(0..n as u32);
+            self.sorted_idx.par_sort_by(|&a, &b| {
+                cmp_zyx(&keys[a as usize], &keys[b as usize]).then(a.cmp(&b))
+            });
+            let mut ukeys = Vec::new();
+            let mut start = Vec::new();
+            for (s, &i) in self.sorted_idx.iter().enumerate() {
+                let k = keys[i as usize];
+                if ukeys.last() != Some(&k) {
+                    ukeys.push(k);
+                    start.push(s as u32);
+                }
+            }
+            start.push(n as u32);
+            self.cells = CellIndex::Sparse { keys: ukeys, start };
+        }
+        self.sorted_pts
+            .extend(self.sorted_idx.iter().map(|&i| points[i as usize]));
+        Ok(())
+    }
+
+    fn query(&self, points: &[D::Vector], out: &mut NeighborList) {
+        fill_rows(points, out, |q, buf| self.collect(q, buf));
+    }
+
+    fn radius(&self) -> f64 {
+        self.radius
+    }
+}

@@ -1,0 +1,94 @@
+/// Compressed sparse row neighbour lists: row `i` is `indices[offsets[i]..offsets[i + 1]]`,
+/// sorted ascending.
+///
+/// The buffers (and per-chunk scratch) are kept between queries, so rebuilding a list of similar
+/// size every step does not allocate.
+#[derive(Clone, Debug, Default)]
+pub struct NeighborList {
+    pub(crate) offsets: Vec<usize>,
+    pub(crate) indices: Vec<u32>,
+    /// Per-chunk scratch reused across queries.
+    pub(crate) chunks: Vec<Vec<u32>>,
+}
+
+impl NeighborList {
+    /// An empty list.
+    pub fn new() -> Self {
+        Self {
+            offsets: vec![0],
+            ..Default::default()
+        }
+    }
+
+    /// Builds a list from explicit rows (tests and small tools). Rows are sorted.
+    pub fn from_rows(rows: &[Vec<u32>]) -> Self {
+        let mut offsets = Vec::with_capacity(rows.len() + 1);
+        let mut indices = Vec::new();
+        offsets.push(0);
+        for r in rows {
+            let start = indices.len();
+            indices.extend_from_slice(r);
+            indices[start..].sort_unstable();
+            offsets.push(indices.len());
+        }
+        Self {
+            offsets,
+            indices,
+            chunks: Vec::new(),
+        }
+    }
+
+    /// Number of rows (query points).
+    pub fn len(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// True if there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Total number of stored pairs (the number of non-zeros of a matrix with this pattern).
+    pub fn nnz(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// Neighbours of query point `i`, sorted ascending.
+    #[inline(always)]
+    pub fn row(&self, i: usize) -> &[u32] {
+        &self.indices[self.offsets[i]..self.offsets[i + 1]]
+    }
+
+    /// Row offsets, `len() + 1` entries.
+    pub fn offsets(&self) -> &[usize] {
+        &self.offsets
+    }
+
+    /// Column indices of all rows, concatenated.
+    pub fn indices(&self) -> &[u32] {
+        &self.indices
+    }
+
+    /// Length of the longest row.
+    pub fn max_row_len(&self) -> usize {
+        self.offsets
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Mean row length.
+    pub fn mean_row_len(&self) -> f64 {
+        if self.is_empty() {
+            0.0
+        } else {
+            self.nnz() as f64 / self.len() as f64
+        }
+    }
+
+    /// True if both lists hold the same rows (scratch buffers are ignored).
+    pub fn same_rows(&self, other: &NeighborList) -> bool {
+        self.offsets == other.offsets && self.indices == other.indices
+    }
+}

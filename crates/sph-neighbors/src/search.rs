@@ -1,0 +1,104 @@
+use crate::{NeighborError, NeighborList};
+use rayon::prelude::*;
+use sph_core::{Dim, VectorOps};
+
+/// A fixed-radius neighbour search over an indexed point set.
+pub trait NeighborSearch<D: Dim>: Send + Sync {
+    /// Indexes `points` for queries of radius `radius`. The points are copied; later changes to
+    /// the caller's slice need a new `build`.
+    fn build(&mut self, points: &[D::Vector], radius: f64) -> Result<(), NeighborError>;
+
+    /// For every query point, the indexed points `j` with `|x_q − x_j|² ≤ radius²`, sorted
+    /// ascending, written to `out` (previous contents are replaced, buffers reused).
+    ///
+    /// Querying with the indexed points themselves gives the self-join (each row holds its own
+    /// index). Query points may lie anywhere, e.g. probe points for density sampling.
+    fn query(&self, points: &[D::Vector], out: &mut NeighborList);
+
+    /// The radius given to the last `build`.
+    fn radius(&self) -> f64;
+}
+
+pub(crate) fn validate<D: Dim>(points: &[D::Vector], radius: f64) -> Result<(), NeighborError> {
+    if !(radius.is_finite() && radius > 0.0) {
+        return Err(NeighborError::InvalidRadius(radius));
+    }
+    if points.len() >= u32::MAX as usize {
+        return Err(NeighborError::TooManyPoints(points.len()));
+    }
+    if let Some(index) = points.iter().position(|p| !p.is_finite()) {
+        return Err(NeighborError::NonFinitePoint { index });
+    }
+    Ok(())
+}
+
+/// Query points per parallel work item. Fixed, so the work split (and hence the output) never
+/// depends on the number of threads.
+pub(crate) const CHUNK: usize = 256;
+
+/// Fills `out` by calling `collect(q, buf)` for every query point, in parallel chunks of
+/// [`CHUNK`] points. `collect` appends the neighbours of point `q` to `buf`; rows are then sorted
+/// and concatenated in query order.
+pub(crate) fn fill_rows<V, F>(queries: &[V], out: &mut NeighborList, collect: F)
+where
+    V: Sync,
+    F: Fn(&V, &mut Vec<u32>) + Sync,
+{
+    let nq = queries.len();
+    let nchunks = nq.div_ceil(CHUNK);
+    out.chunks.resize_with(nchunks, Vec::new);
+    out.offsets.clear();
+    out.offsets.resize(nq + 1, 0);
+    out.chunks[..nchunks]
+        .par_iter_mut()
+        .zip(out.offsets[1..].par_chunks_mut(CHUNK))
+        .zip(queries.par_chunks(CHUNK))
+        .for_each(|((buf, counts), qs)| {
+            buf.clear();
+            for (q, count) in qs.iter().zip(counts.iter_mut()) {
+                let start = buf.len();
+                collect(q, buf);
+                buf[start..].sort_unstable();
+                *count = buf.len() - start;
+            }
+        });
+    for i in 1..=nq {
+        out.offsets[i] += out.offsets[i - 1];
+    }
+    out.indices.clear();
+    out.indices.resize(out.offsets[nq], 0);
+    concat(&out.chunks[..nchunks], &mut out.indices);
+}
+
+/// Copies the chunk buffers back to back into `dst`, splitting the work recursively.
+fn concat(chunks: &[Vec<u32>], dst: &mut [u32]) {
+    if chunks.len() <= 16 {
+        let mut at = 0;
+        for c in chunks {
+            dst[at..at + c.len()].copy_from_slice(c);
+            at += c.len();
+        }
+        return;
+    }
+    let mid = chunks.len() / 2;
+    let left: usize = chunks[..mid].iter().map(Vec::len).sum();
+    let (dl, dr) = dst.split_at_mut(left);
+    rayon::join(|| concat(&chunks[..mid], dl), || concat(&chunks[mid..], dr));
+}
+
+/// O(n·m) reference search: the oracle the fast searches are tested against.
+pub fn brute_force<D: Dim>(
+    indexed: &[D::Vector],
+    queries: &[D::Vector],
+    radius: f64,
+    out: &mut NeighborList,
+) {
+    let r2 = radius * radius;
+    fill_rows(queries, out, |q, buf| {
+        for (j, x) in indexed.iter().enumerate() {
+            if (*x - *q).length_squared() <= r2 {
+                buf.push(j as u32);
+            }
+        }
+    });
+}

@@ -1,0 +1,149 @@
+//! Both searches must equal the brute-force oracle, in 2D and 3D.
+
+use crate::*;
+use sph_core::testing::{SplitMix64, random_cloud};
+use sph_core::{Dim, VectorOps};
+
+fn searches<D: Dim>() -> Vec<(&'static str, AnySearch<D>)> {
+    vec![
+        ("cell_grid", AnySearch::new(SearchKind::CellGrid)),
+        ("kd_tree", AnySearch::new(SearchKind::KdTree)),
+    ]
+}
+
+/// Asserts that every search gives the brute-force lists for `queries` against `points`.
+fn check_against_brute_force<D: Dim>(points: &[D::Vector], queries: &[D::Vector], radius: f64) {
+    let mut expect = NeighborList::new();
+    brute_force::<D>(points, queries, radius, &mut expect);
+    for (name, mut s) in searches::<D>() {
+        s.build(points, radius).unwrap();
+        let mut got = NeighborList::new();
+        s.query(queries, &mut got);
+        assert_eq!(got.len(), queries.len(), "{name}");
+        for i in 0..queries.len() {
+            assert_eq!(got.row(i), expect.row(i), "{name} {}: row {i}", D::NAME);
+        }
+        assert!(got.same_rows(&expect));
+    }
+}
+
+sph_core::dim_tests! {
+    fn random_clouds_match_brute_force<D>() {
+        for (n, seed) in [(10, 1), (1500, 2), (4000, 3)] {
+            let pts = random_cloud::<D>(n, -1.0, 1.0, seed);
+            // Radius giving ~40 neighbours per point, and a large one giving hundreds.
+            let vol_per_pt = 2f64.powi(D::DIM as i32) / n as f64;
+            for k in [40.0, 300.0] {
+                let r = (k * vol_per_pt).powf(1.0 / D::DIM as f64) * 0.6;
+                check_against_brute_force::<D>(&pts, &pts, r);
+            }
+        }
+    }
+
+    fn self_join_contains_self_and_is_sorted<D>() {
+        let pts = random_cloud::<D>(800, 0.0, 1.0, 9);
+        let mut s = CellGrid::<D>::new();
+        s.build(&pts, 0.1).unwrap();
+        let mut nl = NeighborList::new();
+        s.query(&pts, &mut nl);
+        for i in 0..pts.len() {
+            let row = nl.row(i);
+            assert!(row.binary_search(&(i as u32)).is_ok(), "row {i} lacks itself");
+            assert!(row.windows(2).all(|w| w[0] < w[1]), "row {i} not strictly ascending");
+        }
+    }
+
+    fn probe_points_anywhere<D>() {
+        // Queries inside, on the edge of and far outside the indexed cloud.
+        let pts = random_cloud::<D>(1000, 0.0, 1.0, 4);
+        let mut probes = random_cloud::<D>(300, -0.5, 1.5, 5);
+        probes.push(D::Vector::from_fn(|_| 1e9));
+        probes.push(D::Vector::from_fn(|_| -1e9));
+        check_against_brute_force::<D>(&pts, &probes, 0.12);
+    }
+
+    fn empty_and_single_point<D>() {
+        check_against_brute_force::<D>(&[], &[], 0.1);
+        let empty: Vec<D::Vector> = Vec::new();
+        let one = vec![D::Vector::from_fn(|i| 0.25 * i as f64)];
+        check_against_brute_force::<D>(&empty, &one, 0.1);
+        check_against_brute_force::<D>(&one, &one, 0.1);
+        check_against_brute_force::<D>(&one, &empty, 0.1);
+    }
+
+    fn coincident_points<D>() {
+        // 100 copies of one point, 50 of another at exactly the radius, and a sprinkle.
+        let a = D::Vector::from_fn(|_| 0.3);
+        let mut b = a;
+        b.set(0, 0.3 + 0.05);
+        let mut pts = vec![a; 100];
+        pts.extend(std::iter::repeat_n(b, 50));
+        pts.extend(random_cloud::<D>(100, 0.0, 1.0, 6));
+        check_against_brute_force::<D>(&pts, &pts, 0.05);
+    }
+
+    fn wide_coordinate_range<D>() {
+        // Tight clusters at the origin and at 1e6 plus a sparse scatter over ±1e6: the dense grid
+        // would need ~1e14+ cells, so the cell grid must switch to its sparse index.
+        let mut pts = random_cloud::<D>(500, -0.01, 0.01, 7);
+        pts.extend(random_cloud::<D>(500, 1e6, 1e6 + 0.01, 8));
+        pts.extend(random_cloud::<D>(200, -1e6, 1e6, 9));
+        check_against_brute_force::<D>(&pts, &pts, 0.002);
+        let mut g = CellGrid::<D>::new();
+        g.build(&pts, 0.002).unwrap();
+        assert!(g.is_sparse());
+    }
+
+    fn results_do_not_depend_on_thread_count<D>() {
+        let pts = random_cloud::<D>(5000, -1.0, 1.0, 10);
+        let run = |threads: usize, kind: SearchKind| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| {
+                let mut s = AnySearch::<D>::new(kind);
+                s.build(&pts, 0.15).unwrap();
+                let mut nl = NeighborList::new();
+                s.query(&pts, &mut nl);
+                nl
+            })
+        };
+        for kind in [SearchKind::CellGrid, SearchKind::KdTree] {
+            let one = run(1, kind);
+            for t in [2, 3, 7] {
+                assert!(run(t, kind).same_rows(&one), "{kind:?} differs with {t} threads");
+            }
+        }
+    }
+
+    fn rebuild_reuses_buffers_and_stays_correct<D>() {
+        let mut rng = SplitMix64::new(12);
+        let mut pts = random_cloud::<D>(2000, 0.0, 1.0, 11);
+        let mut s = CellGrid::<D>::new();
+        let mut nl = NeighborList::new();
+        let mut expect = NeighborList::new();
+        for _ in 0..3 {
+            for p in pts.iter_mut() {
+                *p += rng.vector::<D>(-0.01, 0.01);
+            }
+            s.build(&pts, 0.08).unwrap();
+            s.query(&pts, &mut nl);
+            brute_force::<D>(&pts, &pts, 0.08, &mut expect);
+            assert!(nl.same_rows(&expect));
+        }
+    }
+
+    fn bad_input_is_an_error<D>() {
+        let mut pts = random_cloud::<D>(10, 0.0, 1.0, 13);
+        for (_, mut s) in searches::<D>() {
+            assert_eq!(s.build(&pts, 0.0), Err(NeighborError::InvalidRadius(0.0)));
+            assert_eq!(s.build(&pts, -1.0), Err(NeighborError::InvalidRadius(-1.0)));
+            assert!(matches!(s.build(&pts, f64::NAN), Err(NeighborError::InvalidRadius(_))));
+        }
+        pts[7].set(0, f64::NAN);
+        for (_, mut s) in searches::<D>() {
+            assert_eq!(s.build(&pts, 0.1), Err(NeighborError::NonFinitePoint { index: 7 }));
+        }
+        let wide = vec![D::Vector::ZERO, D::Vector::from_fn(|_| 1e300)];
+        let mut g = CellGrid::<D>::new();
+        assert!(matches!(g.build(&wide, 1e-3), Err(NeighborError::DomainTooWide { .. })));
+    }
+}
