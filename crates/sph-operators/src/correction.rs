@@ -1,0 +1,64 @@
+use crate::context::{MIN_LEN, SphContext};
+use rayon::prelude::*;
+use sph_core::{Dim, MatrixOps, VectorOps};
+use sph_kernels::Kernel;
+
+/// Outcome of [`correction_matrices`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CorrectionStats {
+    /// Particles whose moment matrix was singular or ill-conditioned and got `L_i = I`.
+    pub fallbacks: usize,
+}
+
+/// Kernel-gradient renormalisation matrices (Bonet & Lok 1999; Randles & Libersky 1996):
+///
+/// ```text
+/// B_i = Σ_j V_j ∇W_ij ⊗ (x_j − x_i),     L_i = B_i⁻¹,     ∇̃W_ij = L_i ∇W_ij
+/// ```
+///
+/// With `∇̃W`, `Σ_j V_j (f_j − f_i) ∇̃W_ij = L_i B_i ∇f = ∇f` exactly for every linear field `f`,
+/// whatever the particle arrangement. On a full lattice `B_i ≈ I` (to the lattice-sum error of
+/// the kernel); at a free surface it is far from `I` and may be singular: where
+/// `det B_i < min_det` (relative to the interior value 1) the particle falls back to `L_i = I`,
+/// and the count is returned.
+pub fn correction_matrices<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    min_det: f64,
+    out: &mut [D::Matrix],
+) -> CorrectionStats {
+    assert_eq!(out.len(), ctx.len());
+    let fallbacks = out
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(MIN_LEN)
+        .map(|(i, l)| {
+            let xi = ctx.positions[i];
+            let mut b = D::Matrix::ZERO;
+            for j in ctx.neighbors_of(i) {
+                let x_ij = xi - ctx.positions[j];
+                let g = ctx.kernel.grad_w(x_ij);
+                b += D::Matrix::outer(g, -x_ij) * ctx.volumes[j];
+            }
+            match b.try_inverse(min_det) {
+                Some(inv) => {
+                    *l = inv;
+                    0
+                }
+                None => {
+                    *l = D::Matrix::IDENTITY;
+                    1
+                }
+            }
+        })
+        .sum();
+    CorrectionStats { fallbacks }
+}
+
+/// `L_i ∇W_ij` when corrections are given, else `∇W_ij`.
+#[inline(always)]
+pub(crate) fn corrected<D: Dim>(l: Option<&[D::Matrix]>, i: usize, g: D::Vector) -> D::Vector {
+    match l {
+        Some(l) => l[i] * g,
+        None => g,
+    }
+}

@@ -1,0 +1,44 @@
+use crate::context::{SphContext, gather};
+use crate::correction::corrected;
+use sph_core::{Dim, VectorOps};
+use sph_kernels::Kernel;
+
+/// Which discrete gradient to use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum GradientForm {
+    /// `∇f_i = Σ_j V_j (f_j − f_i) ∇W_ij`: zero for a constant field, exact for linear fields
+    /// when renormalised. The default, and the one that conserves volume best in the drops.
+    #[default]
+    Difference,
+    /// `∇f_i = Σ_j V_j (f_i + f_j) ∇W_ij`, the uniform-density form of the momentum-conserving
+    /// pressure gradient `ρ_i Σ_j m_j (p_i/ρ_i² + p_j/ρ_j²) ∇W_ij` (Monaghan 1992). Exact for
+    /// linear fields only where `Σ_j V_j ∇W_ij = 0` (the interior of a regular lattice).
+    Symmetric,
+}
+
+/// Gradient of the scalar field `f` (see [`GradientForm`]); `corrections` are the optional
+/// renormalisation matrices `L_i` of [`correction_matrices`](crate::correction_matrices).
+pub fn gradient<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    f: &[f64],
+    form: GradientForm,
+    corrections: Option<&[D::Matrix]>,
+    out: &mut [D::Vector],
+) {
+    assert_eq!(f.len(), ctx.len());
+    assert_eq!(out.len(), ctx.len());
+    let sign = match form {
+        GradientForm::Difference => -1.0,
+        GradientForm::Symmetric => 1.0,
+    };
+    gather(out, |i| {
+        let xi = ctx.positions[i];
+        let fi = sign * f[i];
+        let mut acc = D::Vector::ZERO;
+        for j in ctx.neighbors_of(i) {
+            let g = ctx.kernel.grad_w(xi - ctx.positions[j]);
+            acc += g * (ctx.volumes[j] * (f[j] + fi));
+        }
+        corrected::<D>(corrections, i, acc)
+    });
+}
