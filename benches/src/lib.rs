@@ -1,1 +1,32 @@
-//! placeholder
+//! Shared fixtures of the dgsph criterion benches: seeded, lattice-like particle sets of a given
+//! size with the paper's resolution ratio `h = 1.3 dx` and the quintic support `3h`.
+
+use sph_core::testing::{SplitMix64, lattice};
+use sph_core::{Dim, VectorOps};
+
+/// A perturbed lattice of about `n` particles (spacing `dx = 1`, jitter ±10 %), seeded.
+pub fn particles<D: Dim>(n: usize) -> Vec<D::Vector> {
+    let per_side = (n as f64).powf(1.0 / D::DIM as f64).round() as usize;
+    let mut pts = lattice::<D>(per_side, 1.0);
+    let mut rng = SplitMix64::new(2024);
+    for p in pts.iter_mut() {
+        *p += rng.vector::<D>(-0.1, 0.1);
+    }
+    // Shuffle so the input order is not already cell order (as after many time steps).
+    for i in (1..pts.len()).rev() {
+        let j = (rng.next_u64() % (i as u64 + 1)) as usize;
+        pts.swap(i, j);
+    }
+    pts
+}
+
+/// Smoothing length for `dx = 1`.
+pub const H: f64 = 1.3;
+
+/// Quintic support radius `3h`.
+pub const RADIUS: f64 = 3.0 * H;
+
+/// Mean of a field, to keep results observable.
+pub fn checksum<V: VectorOps>(v: &[V]) -> f64 {
+    v.iter().map(|x| x.get(0)).sum()
+}

@@ -1,1 +1,27 @@
-fn main() {}
+//! `cargo xtask`: dgsph's developer tasks.
+//!
+//! * `cargo xtask validate` runs the validation cases, compares them with reference or exact
+//!   data, prints a pass/fail table, writes `target/validation/summary.json` and exits non-zero
+//!   if any check fails.
+//!
+//! xtask owns all file I/O and terminal output; the library crates do none.
+
+mod flags;
+mod validate;
+
+use clap::Parser;
+
+fn main() -> std::process::ExitCode {
+    let cli = flags::Cli::parse();
+    let result = match cli.command {
+        flags::Command::Validate(args) => validate::run(&args),
+    };
+    match result {
+        Ok(true) => std::process::ExitCode::SUCCESS,
+        Ok(false) => std::process::ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}

@@ -168,7 +168,7 @@ impl<D: Dim> NeighborSearch<D> for CellGrid<D> {
         let mut total_cells: f64 = 1.0;
         for k in 0..D::DIM {
             let span = (hi.get(k) - lo.get(k)) * self.inv_cell;
-            if !(span < MAX_SPAN) {
+            if span.is_nan() || span >= MAX_SPAN {
                 return Err(NeighborError::DomainTooWide {
                     span_over_radius: span,
                 });

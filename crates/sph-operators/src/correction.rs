@@ -1,6 +1,6 @@
 use crate::context::{MIN_LEN, SphContext};
 use rayon::prelude::*;
-use sph_core::{Dim, MatrixOps, VectorOps};
+use sph_core::{Dim, MatrixOps};
 use sph_kernels::Kernel;
 
 /// Outcome of [`correction_matrices`].

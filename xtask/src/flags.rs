@@ -1,0 +1,43 @@
+//! Command-line flags.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// dgsph developer tasks.
+#[derive(Debug, Parser)]
+#[command(name = "xtask", about = "dgsph developer tasks")]
+pub struct Cli {
+    /// The task to run.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Available tasks.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the validation cases and compare them with reference data.
+    Validate(ValidateArgs),
+}
+
+/// How much to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Preset {
+    /// A few minutes on a laptop: coarse resolutions, short end times.
+    Quick,
+    /// The paper's resolutions and end times (long: start in the background).
+    Paper,
+}
+
+/// Flags of `cargo xtask validate`.
+#[derive(Debug, clap::Args)]
+pub struct ValidateArgs {
+    /// Resolution / duration preset.
+    #[arg(long, value_enum, default_value = "quick")]
+    pub preset: Preset,
+    /// Run only the cases whose name contains this string.
+    #[arg(long)]
+    pub case: Option<String>,
+    /// Output directory for reports and frames.
+    #[arg(long, default_value = "target/validation")]
+    pub out: PathBuf,
+}
