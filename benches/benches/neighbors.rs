@@ -11,16 +11,23 @@ fn bench_dim<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
     group.sample_size(10);
     for &n in sizes {
         let pts = particles::<D>(n);
-        for (name, kind) in [("cell_grid", SearchKind::CellGrid), ("kd_tree", SearchKind::KdTree)] {
+        for (name, kind) in [
+            ("cell_grid", SearchKind::CellGrid),
+            ("kd_tree", SearchKind::KdTree),
+        ] {
             let mut search = AnySearch::<D>::new(kind);
             let mut list = NeighborList::new();
-            group.bench_with_input(BenchmarkId::new(format!("{name}/{}", D::NAME), n), &pts, |b, pts| {
-                b.iter(|| {
-                    search.build(pts, RADIUS).unwrap();
-                    search.query(pts, &mut list);
-                    black_box(list.nnz())
-                })
-            });
+            group.bench_with_input(
+                BenchmarkId::new(format!("{name}/{}", D::NAME), n),
+                &pts,
+                |b, pts| {
+                    b.iter(|| {
+                        search.build(pts, RADIUS).unwrap();
+                        search.query(pts, &mut list);
+                        black_box(list.nnz())
+                    })
+                },
+            );
         }
     }
     group.finish();

@@ -26,13 +26,16 @@ fn bench_dim<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
         let mut l = vec![D::Matrix::ZERO; pts.len()];
         let mut div = vec![0.0; pts.len()];
         let mut lap = vec![0.0; pts.len()];
-        group.bench_function(BenchmarkId::new(format!("divergence_renormalised/{}", D::NAME), n), |b| {
-            b.iter(|| {
-                correction_matrices(&ctx, 1e-12, &mut l);
-                divergence(&ctx, &u, Some(&l), &mut div);
-                black_box(div[0])
-            })
-        });
+        group.bench_function(
+            BenchmarkId::new(format!("divergence_renormalised/{}", D::NAME), n),
+            |b| {
+                b.iter(|| {
+                    correction_matrices(&ctx, 1e-12, &mut l);
+                    divergence(&ctx, &u, Some(&l), &mut div);
+                    black_box(div[0])
+                })
+            },
+        );
         group.bench_function(BenchmarkId::new(format!("laplacian/{}", D::NAME), n), |b| {
             b.iter(|| {
                 laplacian(&ctx, &f, &mut lap);

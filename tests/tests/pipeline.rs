@@ -19,7 +19,10 @@ fn pipeline<D: Dim>(kind: SearchKind) -> (Vec<f64>, Vec<D::Matrix>) {
     search.query(&pts, &mut nl);
     let vols = vec![dx.powi(D::DIM as i32); n];
     let ctx = SphContext::new(&pts, &vols, &nl, &kernel);
-    let u: Vec<D::Vector> = pts.iter().map(|x| D::Vector::from_fn(|k| (x.get(k) * 3.0).sin())).collect();
+    let u: Vec<D::Vector> = pts
+        .iter()
+        .map(|x| D::Vector::from_fn(|k| (x.get(k) * 3.0).sin()))
+        .collect();
     let f: Vec<f64> = pts.iter().map(|x| x.length_squared()).collect();
     let mut l = vec![D::Matrix::ZERO; n];
     correction_matrices(&ctx, 1e-9, &mut l);

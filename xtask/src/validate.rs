@@ -21,7 +21,10 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
         anyhow::bail!("no validation case matches {:?}", args.case);
     }
 
-    println!("{:<11} {:<46} {:>13} {:>13} {:>10}  result", "case", "check", "value", "reference", "tolerance");
+    println!(
+        "{:<11} {:<46} {:>13} {:>13} {:>10}  result",
+        "case", "check", "value", "reference", "tolerance"
+    );
     for c in &checks {
         println!(
             "{:<11} {:<46} {:>13.6e} {:>13.6e} {:>10.1e}  {}",

@@ -51,7 +51,10 @@ fn dim_checks<D: Dim>(out: &mut Vec<Check>) {
     correction_matrices(&ctx, 1e-12, &mut l);
     let mut div = vec![0.0; pts.len()];
     divergence(&ctx, &u, Some(&l), &mut div);
-    let worst = div.iter().map(|d| (d - g.trace()).abs()).fold(0.0, f64::max);
+    let worst = div
+        .iter()
+        .map(|d| (d - g.trace()).abs())
+        .fold(0.0, f64::max);
     out.push(Check::new(
         "operators",
         format!("renormalised ∇·u, linear u, {} max error", D::NAME),
@@ -103,7 +106,11 @@ fn integrate_radial<D: Dim>(k: &impl Kernel<D>) -> f64 {
     let h = k.h();
     let pieces = (k.support_radius() / h).round() as usize;
     let shell = |r: f64| {
-        if D::DIM == 2 { 2.0 * std::f64::consts::PI * r } else { 4.0 * std::f64::consts::PI * r * r }
+        if D::DIM == 2 {
+            2.0 * std::f64::consts::PI * r
+        } else {
+            4.0 * std::f64::consts::PI * r * r
+        }
     };
     let mut sum = 0.0;
     for p in 0..pieces {

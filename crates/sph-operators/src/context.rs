@@ -65,6 +65,14 @@ pub fn laplacian_regulariser(h: f64) -> f64 {
     (0.01 * h) * (0.01 * h)
 }
 
+/// `F_ij = x_ij·∇W_ij / (r_ij² + (0.01h)²)` (paper, below Eq. 26): the scalar kernel factor of
+/// the Morris Laplacian and the Eq. 25 Hessian. `F_ij ≤ 0`; zero for `x_ij = 0`.
+#[inline(always)]
+pub fn pair_f<D: Dim, K: Kernel<D>>(kernel: &K, x_ij: D::Vector) -> f64 {
+    use sph_core::VectorOps;
+    x_ij.dot(kernel.grad_w(x_ij)) / (x_ij.length_squared() + laplacian_regulariser(kernel.h()))
+}
+
 /// Particles per rayon work item.
 pub(crate) const MIN_LEN: usize = 256;
 

@@ -1,5 +1,5 @@
-use crate::context::{SphContext, gather, laplacian_regulariser};
-use sph_core::{Dim, VectorOps};
+use crate::context::{SphContext, gather, pair_f};
+use sph_core::Dim;
 use sph_kernels::Kernel;
 
 /// Morris (1997) Laplacian of a scalar field, the left-hand side of the PPE (paper Eq. 3):
@@ -13,15 +13,11 @@ use sph_kernels::Kernel;
 pub fn laplacian<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, f: &[f64], out: &mut [f64]) {
     assert_eq!(f.len(), ctx.len());
     assert_eq!(out.len(), ctx.len());
-    let eta2 = laplacian_regulariser(ctx.kernel.h());
     gather(out, |i| {
         let xi = ctx.positions[i];
         let mut s = 0.0;
         for j in ctx.neighbors_of(i) {
-            let x_ij = xi - ctx.positions[j];
-            let r2 = x_ij.length_squared();
-            let f_ij = x_ij.dot(ctx.kernel.grad_w(x_ij)) / (r2 + eta2);
-            s += ctx.volumes[j] * (f[i] - f[j]) * f_ij;
+            s += ctx.volumes[j] * (f[i] - f[j]) * pair_f::<D, K>(ctx.kernel, xi - ctx.positions[j]);
         }
         2.0 * s
     });

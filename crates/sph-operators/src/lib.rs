@@ -72,16 +72,16 @@ mod quadratic_fit;
 #[cfg(test)]
 mod test_support;
 
-pub use context::{SphContext, laplacian_regulariser};
+pub use context::{SphContext, laplacian_regulariser, pair_f};
 pub use correction::{CorrectionStats, correction_matrices};
 pub use deformation::{Invariants, deformation_gradient, invariants, velocity_gradient};
 pub use density::{density_at_points, density_summation};
 pub use divergence::divergence;
 pub use free_surface::free_surface_indicator;
 pub use gradient::{GradientForm, gradient};
-pub use hessian::hessian;
+pub use hessian::{HessianForm, hessian, hessian_stencil_eq25};
 pub use laplacian::laplacian;
-pub use quadratic_fit::{QuadraticFitStats, hessian_quadratic_fit};
+pub use quadratic_fit::{QuadraticFitStats, hessian_quadratic_fit, hessian_stencil_fit};
 
 /// The dimension abstraction (re-export of `sph-core`).
 pub use sph_core as core;

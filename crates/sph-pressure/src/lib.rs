@@ -1,9 +1,42 @@
 //! # sph-pressure
 //!
-//! Pressure equations of incompressible SPH and the linear solvers behind them:
-//! the pressure Poisson equation `∇·(∇p/ρ) = ∇·u*/Δt` (paper Eq. 3) and the deformation-gradient
-//! equation `(Δt²/ρ) cof(A):∇∇p = det A − 1` (paper Eqs. 23–24, with the sign derived in the
-//! crate docs of `PressureScheme`), assembled row by row on the step's neighbour lists.
+//! Pressure equations of incompressible SPH, assembled on the step's neighbour lists, and the
+//! linear solvers behind them.
 //!
-//! Status: the assembly and solvers land with the ISPH-schemes issue; this crate is the place
-//! for them in the layering `sph-operators ← sph-pressure ← sph-integrators`.
+//! * [`assemble_ppe`] — the pressure Poisson equation `∇·(∇p/ρ) = ∇·u*/Δt` (paper Eq. 3) with
+//!   the Cummins & Rudman (1999) form of the Morris Laplacian.
+//! * [`assemble_dg`] — the deformation-gradient equation of DG-ISPH (paper Eqs. 20–24,
+//!   Algorithm 1) written for any dimension as `(Δt²/ρ) cof(A) : ∇∇p = det A − 1`.
+//!
+//! **Sign of the DG equation.** With the velocity correction of Algorithm 1,
+//! `u = u* − Δt ∇p/ρ`, the step's deformation gradient is `F = A − (Δt²/ρ) ∇∇p` with
+//! `A = I + ∇(Δt u*)`, and `det(A − E) = det A − cof(A):E + O(E²)`. Setting `det F = 1` gives
+//! `(Δt²/ρ) cof(A):∇∇p = det A − 1`. The paper's Eqs. 20–23 use `ũ = +Δt∇p/ρ` and so print
+//! `1 − det A` on the left; combined with Algorithm 1's minus sign that doubles the volume error
+//! instead of removing it. The integrator tests check that a DG step gives `det F − 1 = O(Δt³)`.
+//!
+//! The matrix ([`CsrMatrix`]) shares its sparsity pattern with the neighbour list: row `i`'s
+//! columns are particle `i`'s neighbours (self included), so assembly only fills values, in
+//! parallel, one row per particle, no locks. Rows are scaled so that the diagonal is positive
+//! (the PPE matrix is then a symmetric M-matrix away from Dirichlet rows).
+//!
+//! Free-surface particles get Dirichlet rows `p_i = 0`; their columns are eliminated from the
+//! other rows (their known value is 0), which keeps the PPE matrix symmetric.
+//!
+//! Solvers implement [`LinearSolver`]: [`BiCgStab`] with [`Preconditioner::Jacobi`] or
+//! [`Preconditioner::Ilu0`], warm-started from the previous pressure, and [`SparseLu`] (faer's
+//! sparse LU, for small systems and as a test oracle). Non-convergence is an error carrying the
+//! iteration count and the true residual.
+
+mod assembly;
+mod csr;
+mod error;
+pub mod solver;
+
+pub use assembly::{DgHessian, PressureRhs, assemble_dg, assemble_ppe};
+pub use csr::CsrMatrix;
+pub use error::{PressureError, SolveError};
+pub use solver::{
+    AnySolver, BiCgStab, CsrSystem, LinearSolver, Preconditioner, SolveInfo, SolveParams,
+    SolverKind, SparseLu,
+};

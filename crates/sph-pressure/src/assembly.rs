@@ -1,0 +1,167 @@
+//! Row-parallel assembly of the pressure equations on the neighbour-list pattern.
+
+use crate::csr::{CsrMatrix, for_each_row_mut};
+use crate::error::PressureError;
+use sph_core::{Dim, MatrixOps};
+use sph_kernels::Kernel;
+use sph_operators::{SphContext, hessian_stencil_eq25, hessian_stencil_fit, pair_f};
+
+/// Discrete Hessian used in the DG equation.
+pub use sph_operators::HessianForm as DgHessian;
+
+/// Inputs of the right-hand side, per particle.
+#[derive(Clone, Copy, Debug)]
+pub enum PressureRhs<'a> {
+    /// PPE: `∇·u*` per particle.
+    DivergenceOfIntermediateVelocity(&'a [f64]),
+    /// DG: `det A − 1` per particle, `A = I + ∇(Δt u*)`.
+    DetAMinusOne(&'a [f64]),
+}
+
+/// Assembles the pressure Poisson equation (paper Eq. 3) with the Cummins & Rudman (1999)
+/// Laplacian, rows negated so the diagonal is positive:
+///
+/// ```text
+/// Σ_j c_ij (p_j − p_i) = −∇·u*_i / Δt,      c_ij = −m_j · 8/(ρ_i + ρ_j)² · F_ij ≥ 0
+/// ```
+///
+/// (`2 Σ_j V_j (p_i − p_j) F_ij / ρ` for uniform density). Rows of `dirichlet` particles become
+/// `p_i = 0`, and their columns are dropped from the other rows, so the matrix is symmetric.
+pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    masses: &[f64],
+    densities: &[f64],
+    div_u_star: &[f64],
+    dt: f64,
+    dirichlet: &[bool],
+    matrix: &mut CsrMatrix,
+    rhs: &mut [f64],
+) -> Result<(), PressureError> {
+    let n = ctx.len();
+    assert!(masses.len() == n && densities.len() == n && div_u_star.len() == n);
+    assert!(dirichlet.len() == n && rhs.len() == n);
+    let nl = ctx.neighbors;
+    matrix.resize(nl.nnz());
+    for_each_row_mut(nl.offsets(), &mut matrix.values, &|i, row| {
+        row.fill(0.0);
+        let cols = nl.row(i);
+        let diag = cols
+            .binary_search(&(i as u32))
+            .expect("neighbour rows contain the particle");
+        if dirichlet[i] {
+            row[diag] = 1.0;
+            return;
+        }
+        let xi = ctx.positions[i];
+        let mut sum = 0.0;
+        for (k, &j) in cols.iter().enumerate() {
+            let j = j as usize;
+            if j == i {
+                continue;
+            }
+            let rho = densities[i] + densities[j];
+            let c =
+                -masses[j] * 8.0 / (rho * rho) * pair_f::<D, K>(ctx.kernel, xi - ctx.positions[j]);
+            sum += c;
+            if !dirichlet[j] {
+                row[k] = -c;
+            }
+        }
+        row[diag] = sum;
+    });
+    for i in 0..n {
+        rhs[i] = if dirichlet[i] {
+            0.0
+        } else {
+            -div_u_star[i] / dt
+        };
+    }
+    check_finite(matrix, nl.offsets(), rhs)
+}
+
+/// Assembles the deformation-gradient pressure equation of DG-ISPH, paper Eqs. (23)–(24) for
+/// any dimension, divided by `Δt²` and negated so the diagonal is positive:
+///
+/// ```text
+/// (1/ρ_i) cof(A_i) : (∇∇p)_i = (det A_i − 1) / Δt²,     (∇∇p)_i = Σ_j C_ij (p_j − p_i)
+/// ```
+///
+/// with `A_i = I + ∇(Δt u*)_i` and `C_ij` the Hessian stencil of `hessian` (Eq. 25 with
+/// coefficient `d + 2`, or the exact-for-quadratics fit). For `A = I` the row reduces to the
+/// PPE row, a check the tests make. See the crate docs for the sign. Returns the number of rows
+/// where the quadratic fit fell back to Eq. 25.
+pub fn assemble_dg<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    densities: &[f64],
+    a: &[D::Matrix],
+    det_a_minus_one: &[f64],
+    dt: f64,
+    hessian: DgHessian,
+    dirichlet: &[bool],
+    matrix: &mut CsrMatrix,
+    rhs: &mut [f64],
+) -> Result<usize, PressureError> {
+    let n = ctx.len();
+    assert!(densities.len() == n && a.len() == n && det_a_minus_one.len() == n);
+    assert!(dirichlet.len() == n && rhs.len() == n);
+    let nl = ctx.neighbors;
+    matrix.resize(nl.nnz());
+    let fallbacks = std::sync::atomic::AtomicUsize::new(0);
+    for_each_row_mut(nl.offsets(), &mut matrix.values, &|i, row| {
+        row.fill(0.0);
+        let cols = nl.row(i);
+        let diag = cols
+            .binary_search(&(i as u32))
+            .expect("neighbour rows contain the particle");
+        if dirichlet[i] {
+            row[diag] = 1.0;
+            return;
+        }
+        let cof = a[i].cofactor();
+        let inv_rho = 1.0 / densities[i];
+        let mut sum = 0.0;
+        let mut emit = |k: usize, c: D::Matrix| {
+            // Negated row: −s_ij on p_j, +Σ s_ij on p_i, with s_ij = cof(A):C_ij / ρ_i.
+            let s = cof.contract(&c) * inv_rho;
+            sum += s;
+            if !dirichlet[cols[k] as usize] {
+                row[k] -= s;
+            }
+        };
+        match hessian {
+            DgHessian::Eq25 => hessian_stencil_eq25(ctx, i, &mut emit),
+            DgHessian::QuadraticFit => {
+                if !hessian_stencil_fit(ctx, i, &mut emit) {
+                    fallbacks.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                }
+            }
+        }
+        row[diag] += sum;
+    });
+    for i in 0..n {
+        rhs[i] = if dirichlet[i] {
+            0.0
+        } else {
+            -det_a_minus_one[i] / (dt * dt)
+        };
+    }
+    check_finite(matrix, nl.offsets(), rhs)?;
+    Ok(fallbacks.into_inner())
+}
+
+fn check_finite(matrix: &CsrMatrix, offsets: &[usize], rhs: &[f64]) -> Result<(), PressureError> {
+    if let Some(row) = rhs.iter().position(|v| !v.is_finite()) {
+        return Err(PressureError::NonFinite {
+            what: "right-hand side",
+            row,
+        });
+    }
+    if let Some(k) = matrix.values.iter().position(|v| !v.is_finite()) {
+        let row = offsets.partition_point(|&o| o <= k) - 1;
+        return Err(PressureError::NonFinite {
+            what: "matrix entry",
+            row,
+        });
+    }
+    Ok(())
+}

@@ -1,0 +1,70 @@
+use rayon::prelude::*;
+
+/// A square sparse matrix in compressed sparse row form whose pattern is borrowed from a
+/// neighbour list (row offsets and sorted column indices) and whose values it owns.
+#[derive(Clone, Debug, Default)]
+pub struct CsrMatrix {
+    /// Values aligned with the pattern's column indices.
+    pub values: Vec<f64>,
+}
+
+/// Rows per rayon work item in matrix loops.
+pub(crate) const ROW_CHUNK: usize = 256;
+
+impl CsrMatrix {
+    /// Resizes the value array to the pattern's number of non-zeros (keeps the allocation).
+    pub fn resize(&mut self, nnz: usize) {
+        self.values.resize(nnz, 0.0);
+    }
+
+    /// `y = A x`, in parallel over rows.
+    pub fn matvec(&self, offsets: &[usize], cols: &[u32], x: &[f64], y: &mut [f64]) {
+        matvec(offsets, cols, &self.values, x, y);
+    }
+}
+
+/// `y = A x` for a CSR matrix given as slices.
+pub fn matvec(offsets: &[usize], cols: &[u32], values: &[f64], x: &[f64], y: &mut [f64]) {
+    y.par_iter_mut()
+        .enumerate()
+        .with_min_len(ROW_CHUNK)
+        .for_each(|(i, yi)| {
+            let (a, b) = (offsets[i], offsets[i + 1]);
+            let mut s = 0.0;
+            for k in a..b {
+                s += values[k] * x[cols[k] as usize];
+            }
+            *yi = s;
+        });
+}
+
+/// Calls `f(row, row_values)` for every row, in parallel, giving each call the mutable slice
+/// of its own row (recursive splitting; no allocation, deterministic).
+pub(crate) fn for_each_row_mut<F>(offsets: &[usize], values: &mut [f64], f: &F)
+where
+    F: Fn(usize, &mut [f64]) + Sync,
+{
+    fn rec<F: Fn(usize, &mut [f64]) + Sync>(
+        rows: std::ops::Range<usize>,
+        offsets: &[usize],
+        values: &mut [f64],
+        f: &F,
+    ) {
+        if rows.len() <= ROW_CHUNK {
+            let base = offsets[rows.start];
+            for i in rows {
+                let (a, b) = (offsets[i] - base, offsets[i + 1] - base);
+                f(i, &mut values[a..b]);
+            }
+            return;
+        }
+        let mid = rows.start + rows.len() / 2;
+        let (lo, hi) = values.split_at_mut(offsets[mid] - offsets[rows.start]);
+        rayon::join(
+            || rec(rows.start..mid, offsets, lo, f),
+            || rec(mid..rows.end, offsets, hi, f),
+        );
+    }
+    let n = offsets.len() - 1;
+    rec(0..n, offsets, values, f);
+}

@@ -1,0 +1,124 @@
+use crate::SolveError;
+use crate::solver::CsrSystem;
+use rayon::prelude::*;
+
+/// Preconditioner of [`BiCgStab`](super::BiCgStab).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preconditioner {
+    /// `M = diag(A)`: parallel, no setup cost.
+    Jacobi,
+    /// Incomplete LU with zero fill on the matrix's own pattern (Saad 2003, Alg. 10.4).
+    /// Sequential setup and triangular solves; cuts iterations several-fold on SPH Laplacians.
+    Ilu0,
+}
+
+/// Factorised preconditioner state, reused across solves (buffers only).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct PrecondState {
+    inv_diag: Vec<f64>,
+    /// ILU(0) factors on the pattern of A: strict lower part is L (unit diagonal), the rest U.
+    lu: Vec<f64>,
+    /// Position of the diagonal entry in each row.
+    diag_pos: Vec<usize>,
+}
+
+impl PrecondState {
+    pub(crate) fn setup(
+        &mut self,
+        kind: Preconditioner,
+        a: &CsrSystem<'_>,
+    ) -> Result<(), SolveError> {
+        let n = a.n();
+        self.diag_pos.clear();
+        for i in 0..n {
+            let row = &a.cols[a.offsets[i]..a.offsets[i + 1]];
+            let Ok(k) = row.binary_search(&(i as u32)) else {
+                return Err(SolveError::SingularPivot { row: i, value: 0.0 });
+            };
+            self.diag_pos.push(a.offsets[i] + k);
+        }
+        match kind {
+            Preconditioner::Jacobi => {
+                self.inv_diag.clear();
+                for i in 0..n {
+                    let d = a.values[self.diag_pos[i]];
+                    if d == 0.0 || !d.is_finite() {
+                        return Err(SolveError::SingularPivot { row: i, value: d });
+                    }
+                    self.inv_diag.push(1.0 / d);
+                }
+            }
+            Preconditioner::Ilu0 => {
+                self.lu.clear();
+                self.lu.extend_from_slice(a.values);
+                let (off, cols, lu) = (a.offsets, a.cols, &mut self.lu);
+                for i in 0..n {
+                    let (ra, rb) = (off[i], off[i + 1]);
+                    for kk in ra..self.diag_pos[i] {
+                        let k = cols[kk] as usize;
+                        let pivot = lu[self.diag_pos[k]];
+                        if pivot == 0.0 || !pivot.is_finite() {
+                            return Err(SolveError::SingularPivot {
+                                row: k,
+                                value: pivot,
+                            });
+                        }
+                        let lik = lu[kk] / pivot;
+                        lu[kk] = lik;
+                        // a_ij −= l_ik u_kj for j > k in both row i and row k (sorted merge).
+                        let (mut p, mut q) = (kk + 1, self.diag_pos[k] + 1);
+                        let qe = off[k + 1];
+                        while p < rb && q < qe {
+                            match cols[p].cmp(&cols[q]) {
+                                std::cmp::Ordering::Less => p += 1,
+                                std::cmp::Ordering::Greater => q += 1,
+                                std::cmp::Ordering::Equal => {
+                                    lu[p] -= lik * lu[q];
+                                    p += 1;
+                                    q += 1;
+                                }
+                            }
+                        }
+                    }
+                    let d = lu[self.diag_pos[i]];
+                    if d == 0.0 || !d.is_finite() {
+                        return Err(SolveError::SingularPivot { row: i, value: d });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `z = M⁻¹ r`.
+    pub(crate) fn apply(&self, kind: Preconditioner, a: &CsrSystem<'_>, r: &[f64], z: &mut [f64]) {
+        match kind {
+            Preconditioner::Jacobi => {
+                z.par_iter_mut()
+                    .zip(r.par_iter().zip(self.inv_diag.par_iter()))
+                    .with_min_len(4096)
+                    .for_each(|(z, (r, d))| *z = r * d);
+            }
+            Preconditioner::Ilu0 => {
+                let (off, cols, lu) = (a.offsets, a.cols, &self.lu);
+                let n = a.n();
+                // Forward: L y = r (unit diagonal).
+                for i in 0..n {
+                    let mut s = r[i];
+                    for k in off[i]..self.diag_pos[i] {
+                        s -= lu[k] * z[cols[k] as usize];
+                    }
+                    z[i] = s;
+                }
+                // Backward: U z = y.
+                for i in (0..n).rev() {
+                    let mut s = z[i];
+                    for k in self.diag_pos[i] + 1..off[i + 1] {
+                        s -= lu[k] * z[cols[k] as usize];
+                    }
+                    z[i] = s / lu[self.diag_pos[i]];
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,197 @@
+//! Solver tests on manufactured systems `b = A x*` assembled from SPH operators.
+
+use super::*;
+use crate::csr::CsrMatrix;
+use crate::{DgHessian, assemble_dg, assemble_ppe};
+use sph_core::testing::{SplitMix64, lattice};
+use sph_core::{D2, D3, Dim, MatrixOps, VectorOps};
+use sph_kernels::{Kernel, QuinticSpline};
+use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
+use sph_operators::{SphContext, laplacian};
+
+/// A disc/ball of lattice particles; particles with |x| > 0.8 R are Dirichlet.
+struct Fixture<D: Dim> {
+    pts: Vec<D::Vector>,
+    vols: Vec<f64>,
+    nl: NeighborList,
+    kernel: QuinticSpline<D>,
+    dirichlet: Vec<bool>,
+}
+
+impl<D: Dim> Fixture<D> {
+    fn new(per_side: usize) -> Self {
+        let dx = 1.0 / per_side as f64;
+        let pts: Vec<D::Vector> = lattice::<D>(per_side, dx)
+            .into_iter()
+            .filter(|x| x.length() <= 0.5)
+            .collect();
+        let kernel = QuinticSpline::<D>::new(1.3 * dx);
+        let mut grid = CellGrid::<D>::new();
+        grid.build(&pts, kernel.support_radius()).unwrap();
+        let mut nl = NeighborList::new();
+        grid.query(&pts, &mut nl);
+        let vols = vec![dx.powi(D::DIM as i32); pts.len()];
+        let dirichlet = pts.iter().map(|x| x.length() > 0.4).collect();
+        Self {
+            pts,
+            vols,
+            nl,
+            kernel,
+            dirichlet,
+        }
+    }
+    fn ctx(&self) -> SphContext<'_, D, QuinticSpline<D>> {
+        SphContext::new(&self.pts, &self.vols, &self.nl, &self.kernel)
+    }
+    fn ppe(&self) -> CsrMatrix {
+        let n = self.pts.len();
+        let mut m = CsrMatrix::default();
+        let mut rhs = vec![0.0; n];
+        let ones = vec![1.0; n];
+        let zeros = vec![0.0; n];
+        assemble_ppe(
+            &self.ctx(),
+            &self.vols,
+            &ones,
+            &zeros,
+            1.0,
+            &self.dirichlet,
+            &mut m,
+            &mut rhs,
+        )
+        .unwrap();
+        m
+    }
+}
+
+fn manufactured<D: Dim>(fx: &Fixture<D>, m: &CsrMatrix) -> (Vec<f64>, Vec<f64>) {
+    let mut rng = SplitMix64::new(3);
+    let x_star: Vec<f64> = (0..fx.pts.len()).map(|_| rng.uniform(-1.0, 1.0)).collect();
+    let mut b = vec![0.0; x_star.len()];
+    m.matvec(fx.nl.offsets(), fx.nl.indices(), &x_star, &mut b);
+    (x_star, b)
+}
+
+sph_core::dim_tests! {
+    fn every_solver_solves_a_manufactured_ppe<D>() {
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 40 } else { 14 });
+        let m = fx.ppe();
+        let (x_star, b) = manufactured(&fx, &m);
+        let sys = CsrSystem { offsets: fx.nl.offsets(), cols: fx.nl.indices(), values: &m.values, rhs: &b };
+        let params = SolveParams { rel_tolerance: 1e-10, max_iterations: 5000 };
+        for kind in [SolverKind::BicgstabJacobi, SolverKind::BicgstabIlu0, SolverKind::SparseLu] {
+            let mut s = AnySolver::new(kind);
+            let mut x = vec![0.0; b.len()];
+            let info = s.solve(&sys, &mut x, &params).unwrap();
+            assert!(info.rel_residual <= 1e-9, "{kind:?}: {info:?}");
+            let err = x.iter().zip(&x_star).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            assert!(err < 1e-6, "{kind:?}: max error {err}");
+            // Warm start from the solution: zero or one iteration.
+            let info2 = s.solve(&sys, &mut x, &params).unwrap();
+            assert!(info2.iterations <= 1, "{kind:?} warm start took {}", info2.iterations);
+        }
+        // ILU(0) needs fewer iterations than Jacobi.
+        let iters = |p| {
+            let mut x = vec![0.0; b.len()];
+            BiCgStab::new(p).solve(&sys, &mut x, &params).unwrap().iterations
+        };
+        let (ij, ii) = (iters(Preconditioner::Jacobi), iters(Preconditioner::Ilu0));
+        assert!(ii < ij, "ILU(0) {ii} vs Jacobi {ij} iterations");
+    }
+
+    fn ppe_matrix_is_the_negated_laplacian_and_symmetric<D>() {
+        // Away from Dirichlet particles, −(A p)_i equals the Morris Laplacian of p (ρ = 1).
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
+        let m = fx.ppe();
+        let p: Vec<f64> = fx.pts.iter().map(|x| x.length_squared().cos()).collect();
+        let mut ap = vec![0.0; p.len()];
+        m.matvec(fx.nl.offsets(), fx.nl.indices(), &p, &mut ap);
+        let mut lap = vec![0.0; p.len()];
+        laplacian(&fx.ctx(), &p, &mut lap);
+        for i in 0..p.len() {
+            let touches_dirichlet = fx.nl.row(i).iter().any(|&j| fx.dirichlet[j as usize]);
+            if !touches_dirichlet {
+                assert!((ap[i] + lap[i]).abs() < 1e-9 * lap[i].abs().max(1.0), "row {i}");
+            }
+        }
+        // Symmetric: A_ij = A_ji.
+        let nl = &fx.nl;
+        for i in 0..p.len() {
+            for (k, &j) in nl.row(i).iter().enumerate() {
+                let aij = m.values[nl.offsets()[i] + k];
+                let kj = nl.row(j as usize).binary_search(&(i as u32)).unwrap();
+                let aji = m.values[nl.offsets()[j as usize] + kj];
+                assert!((aij - aji).abs() <= 1e-12 * aij.abs().max(1.0), "({i},{j})");
+            }
+        }
+    }
+
+    fn dg_matrix_with_identity_a_is_the_ppe_matrix<D>() {
+        // For A = I, cof(A) : H = tr H = Laplacian, so the DG rows equal the PPE rows.
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
+        let n = fx.pts.len();
+        let ppe = fx.ppe();
+        let mut dg = CsrMatrix::default();
+        let mut rhs = vec![0.0; n];
+        let a = vec![D::Matrix::IDENTITY; n];
+        let zeros = vec![0.0; n];
+        let ones = vec![1.0; n];
+        assemble_dg(&fx.ctx(), &ones, &a, &zeros, 1.0, DgHessian::Eq25, &fx.dirichlet, &mut dg, &mut rhs).unwrap();
+        for (k, (x, y)) in dg.values.iter().zip(&ppe.values).enumerate() {
+            assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "entry {k}: {x} vs {y}");
+        }
+    }
+
+    fn non_convergence_and_bad_pivots_are_errors<D>() {
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
+        let mut m = fx.ppe();
+        let (_, b) = manufactured(&fx, &m);
+        let sys = CsrSystem { offsets: fx.nl.offsets(), cols: fx.nl.indices(), values: &m.values, rhs: &b };
+        let mut x = vec![0.0; b.len()];
+        let err = BiCgStab::new(Preconditioner::Jacobi)
+            .solve(&sys, &mut x, &SolveParams { rel_tolerance: 1e-12, max_iterations: 2 })
+            .unwrap_err();
+        match err {
+            crate::SolveError::NoConvergence { iterations, rel_residual, .. } => {
+                assert_eq!(iterations, 2);
+                assert!(rel_residual > 1e-12);
+            }
+            e => panic!("expected NoConvergence, got {e:?}"),
+        }
+        // Zero the diagonal of an interior row.
+        let i = (0..b.len()).find(|&i| !fx.dirichlet[i]).unwrap();
+        let k = fx.nl.offsets()[i] + fx.nl.row(i).binary_search(&(i as u32)).unwrap();
+        m.values[k] = 0.0;
+        let sys = CsrSystem { offsets: fx.nl.offsets(), cols: fx.nl.indices(), values: &m.values, rhs: &b };
+        let err = BiCgStab::new(Preconditioner::Jacobi).solve(&sys, &mut x, &SolveParams::default()).unwrap_err();
+        assert_eq!(err, crate::SolveError::SingularPivot { row: i, value: 0.0 });
+    }
+}
+
+#[test]
+fn solve_is_independent_of_thread_count() {
+    let fx = Fixture::<D2>::new(60);
+    let m = fx.ppe();
+    let (_, b) = manufactured(&fx, &m);
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let sys = CsrSystem {
+                    offsets: fx.nl.offsets(),
+                    cols: fx.nl.indices(),
+                    values: &m.values,
+                    rhs: &b,
+                };
+                let mut x = vec![0.0; b.len()];
+                BiCgStab::new(Preconditioner::Jacobi)
+                    .solve(&sys, &mut x, &SolveParams::default())
+                    .unwrap();
+                x
+            })
+    };
+    assert_eq!(run(1), run(3));
+    let _ = D3;
+}
