@@ -1,7 +1,32 @@
 //! # sph-integrators
 //!
-//! Time-update schemes of incompressible SPH behind one `Integrator` interface: first-order
-//! Euler ISPH, Cummins–Rudman predictor–corrector ISPH (paper Algorithm 2) and the
-//! deformation-gradient DG-ISPH (paper Algorithm 1).
+//! Time-update schemes of incompressible SPH behind one [`Integrator`] interface:
 //!
-//! Status: the schemes land with the ISPH-schemes issue.
+//! | scheme | pressure equation | evaluated at | position update | paper |
+//! |---|---|---|---|---|
+//! | [`EulerIsph`] | PPE `∇·(∇p/ρ) = ∇·u*/Δt` | `xⁿ` | `xⁿ⁺¹ = xⁿ + Δt uⁿ⁺¹` | Eq. 3–4 |
+//! | [`PredictorCorrectorIsph`] | PPE | `x' = xⁿ + Δt uⁿ` | `xⁿ⁺¹ = xⁿ + Δt (uⁿ + uⁿ⁺¹)/2` | Algorithm 2 |
+//! | [`DgIsph`] | `(Δt²/ρ) cof(A):∇∇p = det A − 1` | `xⁿ` | `xⁿ⁺¹ = xⁿ + Δt uⁿ⁺¹` | Algorithm 1 |
+//!
+//! All three share one [`Simulation`] (particles, kernel, neighbour search, solver, scratch) and
+//! one projection ([`projection`]): neighbours → renormalisation → free-surface flags →
+//! assemble → solve (warm-started) → `uⁿ⁺¹ = u* − Δt ∇p/ρ`. So a comparison between schemes is
+//! like for like. Every step returns a [`StepReport`] (solver statistics, max |∇·u|, det F
+//! statistics) or a [`StepError`] naming what failed and where.
+//!
+//! Start with [`Simulation::new`] and [`Integrator::step`].
+
+mod config;
+mod error;
+mod projection;
+mod report;
+mod schemes;
+mod simulation;
+mod time_step;
+
+pub use config::{FreeSurface, SimConfig};
+pub use error::StepError;
+pub use report::{DetFStats, StepReport};
+pub use schemes::{DgIsph, EulerIsph, Integrator, PredictorCorrectorIsph, Scheme, SchemeKind};
+pub use simulation::Simulation;
+pub use time_step::TimeStep;

@@ -1,0 +1,40 @@
+use sph_core::CoreError;
+use sph_integrators::StepError;
+use thiserror::Error;
+
+/// Errors of scene handling and case runs.
+#[derive(Debug, Error)]
+pub enum CaseError {
+    /// The scene text is not valid TOML or does not match the schema (unknown key, wrong type).
+    #[error("scene {scene}: {message}")]
+    Parse {
+        /// Scene name or path, as given by the caller.
+        scene: String,
+        /// The parser's message (with line and column).
+        message: String,
+    },
+    /// A scene value is out of range or inconsistent.
+    #[error("scene {scene}: `{field}` {message}")]
+    Invalid {
+        /// Scene name or path.
+        scene: String,
+        /// Offending key.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// The initial particle set is invalid.
+    #[error("case setup: {0}")]
+    Setup(#[from] CoreError),
+    /// A time step failed.
+    #[error("{scheme}: {source}")]
+    Step {
+        /// Scheme that was running.
+        scheme: &'static str,
+        /// What failed.
+        source: StepError,
+    },
+    /// The observer (e.g. a CSV writer) failed; the run stops.
+    #[error("writing results: {0}")]
+    Output(#[from] std::io::Error),
+}

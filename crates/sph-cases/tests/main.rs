@@ -1,0 +1,3 @@
+//! Physics tests of the three ISPH schemes on the paper's drops.
+
+mod step_one;

@@ -1,0 +1,187 @@
+//! The projection shared by all schemes.
+//!
+//! Order: neighbours at `x_eval` → volumes `V = m/ρ` → renormalisation `L` → free-surface flags
+//! from `∇·r` → source (`∇·u*`, or `A = I + Δt∇u*` and `det A − 1`) → assemble → solve
+//! (warm-started from the previous pressure) → `uⁿ⁺¹ = u* − Δt ∇p/ρ` → `max |∇·uⁿ⁺¹|`.
+
+use crate::simulation::Engine;
+use crate::{StepError, report::DetFStats};
+use sph_core::{Dim, MatrixOps, VectorOps};
+use sph_kernels::Kernel;
+use sph_neighbors::NeighborSearch;
+use sph_operators::{
+    SphContext, correction_matrices, deformation_gradient, divergence, free_surface_indicator,
+    gradient, invariants, velocity_gradient,
+};
+use sph_pressure::{CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe};
+
+/// Which pressure equation to solve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Equation {
+    /// Pressure Poisson equation (Euler, predictor–corrector).
+    Ppe,
+    /// Deformation-gradient equation (DG-ISPH).
+    Dg,
+}
+
+/// What a projection reports.
+pub(crate) struct Projected {
+    pub(crate) solve: SolveInfo,
+    pub(crate) max_div_u: f64,
+    pub(crate) free_surface: usize,
+    pub(crate) hessian_fallbacks: usize,
+}
+
+/// Smallest |det B| accepted for a renormalisation matrix before falling back to `L = I`
+/// (bulk value ≈ 1; a flat free surface ≈ 0.5).
+const MIN_CORRECTION_DET: f64 = 1e-3;
+
+/// Builds the neighbour lists, volumes, corrections and free-surface flags at `x`.
+pub(crate) fn prepare<D: Dim>(
+    e: &mut Engine<D>,
+    x: &[D::Vector],
+    masses: &[f64],
+    densities: &[f64],
+    step: usize,
+    t: f64,
+) -> Result<usize, StepError> {
+    e.search
+        .build(x, e.kernel.support_radius())
+        .map_err(|source| StepError::Neighbors { step, t, source })?;
+    e.search.query(x, &mut e.neighbors);
+    for ((v, m), rho) in e.volumes.iter_mut().zip(masses).zip(densities) {
+        *v = m / rho;
+    }
+    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel);
+    let fallbacks = if e.config.renormalise {
+        correction_matrices(&ctx, MIN_CORRECTION_DET, &mut e.corrections).fallbacks
+    } else {
+        0
+    };
+    free_surface_indicator(&ctx, &mut e.div_r);
+    match e.config.free_surface {
+        Some(fs) => {
+            for (d, r) in e.dirichlet.iter_mut().zip(&e.div_r) {
+                *d = *r < fs.div_r_threshold;
+            }
+        }
+        None => e.dirichlet.fill(false),
+    }
+    Ok(fallbacks)
+}
+
+/// Solves for the pressure at configuration `x` (prepared by [`prepare`]) and writes
+/// `u_new = u* − Δt ∇p/ρ`. `pressures` holds the warm start on entry and the solution on exit.
+pub(crate) fn project<D: Dim>(
+    e: &mut Engine<D>,
+    x: &[D::Vector],
+    densities: &[f64],
+    u_star: &[D::Vector],
+    pressures: &mut [f64],
+    dt: f64,
+    equation: Equation,
+    u_new: &mut [D::Vector],
+    step: usize,
+    t: f64,
+) -> Result<Projected, StepError> {
+    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel);
+    let l = e.config.renormalise.then_some(&e.corrections[..]);
+    let mut hessian_fallbacks = 0;
+    match equation {
+        Equation::Ppe => {
+            divergence(&ctx, u_star, l, &mut e.source);
+            // Masses from volumes and densities: m_j = ρ_j V_j.
+            for ((s, v), rho) in e.scalar.iter_mut().zip(&e.volumes).zip(densities) {
+                *s = v * rho;
+            }
+            assemble_ppe(&ctx, &e.scalar, densities, &e.source, dt, &e.dirichlet, &mut e.matrix, &mut e.rhs)
+                .map_err(|source| StepError::Assembly { step, t, source })?;
+        }
+        Equation::Dg => {
+            // A = I + Δt ∇u*,  det A − 1 = Δt I1 + Δt² I2 + Δt³ I3 (no cancellation).
+            velocity_gradient(&ctx, u_star, l, &mut e.a);
+            for (a, s) in e.a.iter_mut().zip(e.source.iter_mut()) {
+                let inv = invariants::<D>(a);
+                *s = dt * (inv.i1 + dt * (inv.i2 + dt * inv.i3));
+                *a = D::Matrix::IDENTITY + *a * dt;
+            }
+            hessian_fallbacks = assemble_dg(
+                &ctx,
+                densities,
+                &e.a,
+                &e.source,
+                dt,
+                e.config.dg_hessian,
+                &e.dirichlet,
+                &mut e.matrix,
+                &mut e.rhs,
+            )
+            .map_err(|source| StepError::Assembly { step, t, source })?;
+        }
+    }
+    for (p, d) in pressures.iter_mut().zip(&e.dirichlet) {
+        if *d {
+            *p = 0.0;
+        }
+    }
+    let system = CsrSystem {
+        offsets: e.neighbors.offsets(),
+        cols: e.neighbors.indices(),
+        values: &e.matrix.values,
+        rhs: &e.rhs,
+    };
+    let solve = e
+        .solver
+        .solve(&system, pressures, &e.config.solve)
+        .map_err(|source| StepError::Solve { step, t, source })?;
+    gradient(&ctx, pressures, e.config.gradient, l, &mut e.grad_p);
+    for (((un, us), g), rho) in u_new.iter_mut().zip(u_star).zip(&e.grad_p).zip(densities) {
+        *un = *us - *g * (dt / rho);
+    }
+    divergence(&ctx, u_new, l, &mut e.scalar);
+    let max_div_u = e
+        .scalar
+        .iter()
+        .zip(&e.dirichlet)
+        .filter(|(_, d)| !**d)
+        .map(|(v, _)| v.abs())
+        .fold(0.0, f64::max);
+    Ok(Projected {
+        solve,
+        max_div_u,
+        free_surface: e.dirichlet.iter().filter(|d| **d).count(),
+        hessian_fallbacks,
+    })
+}
+
+/// det F statistics of the displacement `disp` from configuration `x` (neighbour lists,
+/// volumes and corrections of `e` must belong to `x`), over non-free-surface particles.
+pub(crate) fn det_f_stats<D: Dim>(
+    e: &Engine<D>,
+    x: &[D::Vector],
+    disp: &[D::Vector],
+    f: &mut [D::Matrix],
+) -> DetFStats {
+    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel);
+    let l = e.config.renormalise.then_some(&e.corrections[..]);
+    deformation_gradient(&ctx, disp, l, f);
+    let (mut min, mut max, mut sum, mut count) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
+    for (fi, d) in f.iter().zip(&e.dirichlet) {
+        if !*d {
+            let det = fi.determinant();
+            min = min.min(det);
+            max = max.max(det);
+            sum += det;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        return DetFStats { min: 1.0, mean: 1.0, max: 1.0 };
+    }
+    DetFStats { min, mean: sum / count as f64, max }
+}
+
+/// First particle with a non-finite entry in `v`, if any.
+pub(crate) fn first_non_finite<V: VectorOps>(v: &[V]) -> Option<usize> {
+    v.iter().position(|x| !x.is_finite())
+}

@@ -1,0 +1,253 @@
+//! The three time-update schemes.
+
+use crate::projection::{Equation, det_f_stats, first_non_finite, prepare, project};
+use crate::{Simulation, StepError, StepReport};
+use serde::{Deserialize, Serialize};
+use sph_core::Dim;
+use std::time::Instant;
+
+/// One time-update scheme.
+pub trait Integrator<D: Dim>: Send {
+    /// Name for reports (`euler`, `predictor_corrector`, `dg`).
+    fn name(&self) -> &'static str;
+    /// Advances `sim` by `dt`. On error the particles are left as they were at the start of the
+    /// step, so nothing already computed is lost.
+    fn step(&mut self, sim: &mut Simulation<D>, dt: f64) -> Result<StepReport, StepError>;
+}
+
+/// First-order Euler ISPH (Lee et al. 2008; paper Eqs. 3–4): PPE at `xⁿ`,
+/// `xⁿ⁺¹ = xⁿ + Δt uⁿ⁺¹`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EulerIsph;
+
+/// Cummins & Rudman (1999) predictor–corrector ISPH (paper Algorithm 2): `x' = xⁿ + Δt uⁿ`, PPE
+/// at `x'`, `uⁿ⁺¹ = u* − Δt ∇p/ρ`, `xⁿ⁺¹ = xⁿ + Δt (uⁿ + uⁿ⁺¹)/2`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PredictorCorrectorIsph;
+
+/// Deformation-gradient ISPH (paper Algorithm 1): `A = I + ∇(Δt u*)` at `xⁿ`,
+/// `(Δt²/ρ) cof(A):∇∇p = det A − 1`, `uⁿ⁺¹ = u* − Δt ∇p/ρ`, `xⁿ⁺¹ = xⁿ + Δt uⁿ⁺¹`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DgIsph;
+
+/// Scheme as named in a scene file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SchemeKind {
+    /// [`EulerIsph`].
+    Euler,
+    /// [`PredictorCorrectorIsph`].
+    PredictorCorrector,
+    /// [`DgIsph`].
+    Dg,
+}
+
+impl SchemeKind {
+    /// All schemes.
+    pub const ALL: [SchemeKind; 3] = [SchemeKind::Euler, SchemeKind::PredictorCorrector, SchemeKind::Dg];
+
+    /// Short name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SchemeKind::Euler => "euler",
+            SchemeKind::PredictorCorrector => "predictor_corrector",
+            SchemeKind::Dg => "dg",
+        }
+    }
+}
+
+/// A scheme chosen at run time.
+#[derive(Clone, Copy, Debug)]
+pub enum Scheme {
+    /// See [`EulerIsph`].
+    Euler(EulerIsph),
+    /// See [`PredictorCorrectorIsph`].
+    PredictorCorrector(PredictorCorrectorIsph),
+    /// See [`DgIsph`].
+    Dg(DgIsph),
+}
+
+impl Scheme {
+    /// The scheme of the given kind.
+    pub fn new(kind: SchemeKind) -> Self {
+        match kind {
+            SchemeKind::Euler => Scheme::Euler(EulerIsph),
+            SchemeKind::PredictorCorrector => Scheme::PredictorCorrector(PredictorCorrectorIsph),
+            SchemeKind::Dg => Scheme::Dg(DgIsph),
+        }
+    }
+}
+
+impl<D: Dim> Integrator<D> for Scheme {
+    fn name(&self) -> &'static str {
+        match self {
+            Scheme::Euler(s) => Integrator::<D>::name(s),
+            Scheme::PredictorCorrector(s) => Integrator::<D>::name(s),
+            Scheme::Dg(s) => Integrator::<D>::name(s),
+        }
+    }
+    fn step(&mut self, sim: &mut Simulation<D>, dt: f64) -> Result<StepReport, StepError> {
+        match self {
+            Scheme::Euler(s) => s.step(sim, dt),
+            Scheme::PredictorCorrector(s) => s.step(sim, dt),
+            Scheme::Dg(s) => s.step(sim, dt),
+        }
+    }
+}
+
+/// The explicit part `u* = uⁿ + Δt a` (no explicit forces yet: viscosity and body forces are
+/// effects that later issues add; an inviscid drop has none and runs no loop for them).
+fn intermediate_velocity<D: Dim>(sim: &mut Simulation<D>) {
+    sim.buf.u_star.copy_from_slice(&sim.particles.velocities);
+}
+
+/// The single-configuration schemes (Euler, DG): projection at `xⁿ`, `xⁿ⁺¹ = xⁿ + Δt uⁿ⁺¹`.
+fn step_at_current<D: Dim>(
+    sim: &mut Simulation<D>,
+    dt: f64,
+    equation: Equation,
+) -> Result<StepReport, StepError> {
+    let t0 = Instant::now();
+    let (step, t) = (sim.step, sim.t);
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(StepError::InvalidTimeStep { step, dt });
+    }
+    sim.ensure_buffers();
+    intermediate_velocity(sim);
+    let p = &mut sim.particles;
+    let correction_fallbacks = prepare(&mut sim.engine, &p.positions, &p.masses, &p.densities, step, t)?;
+    // Work on a copy of the pressure so a failed solve leaves the particles untouched.
+    sim.buf.p_work.copy_from_slice(&p.pressures);
+    let projected = project(
+        &mut sim.engine,
+        &p.positions,
+        &p.densities,
+        &sim.buf.u_star,
+        &mut sim.buf.p_work,
+        dt,
+        equation,
+        &mut sim.buf.u_new,
+        step,
+        t,
+    )?;
+    for (d, u) in sim.buf.disp.iter_mut().zip(&sim.buf.u_new) {
+        *d = *u * dt;
+    }
+    if let Some(particle) = first_non_finite(&sim.buf.u_new) {
+        return Err(StepError::NonFinite { step, t, field: "velocity", particle });
+    }
+    let det_f = sim
+        .engine
+        .config
+        .diagnostics
+        .then(|| det_f_stats(&sim.engine, &p.positions, &sim.buf.disp, &mut sim.buf.det_f));
+    commit(sim);
+    finish(sim, dt, projected, correction_fallbacks, det_f, t0)
+}
+
+/// Writes the step's results to the particles: `x += disp`, `u = u_new`, `p = p_work`.
+fn commit<D: Dim>(sim: &mut Simulation<D>) {
+    let p = &mut sim.particles;
+    p.pressures.copy_from_slice(&sim.buf.p_work);
+    for ((x, u), (d, un)) in
+        p.positions.iter_mut().zip(p.velocities.iter_mut()).zip(sim.buf.disp.iter().zip(&sim.buf.u_new))
+    {
+        *x += *d;
+        *u = *un;
+    }
+}
+
+fn finish<D: Dim>(
+    sim: &mut Simulation<D>,
+    dt: f64,
+    projected: crate::projection::Projected,
+    correction_fallbacks: usize,
+    det_f: Option<crate::DetFStats>,
+    t0: Instant,
+) -> Result<StepReport, StepError> {
+    let report = StepReport {
+        step: sim.step,
+        t: sim.t + dt,
+        dt,
+        solve: projected.solve,
+        max_div_u: projected.max_div_u,
+        det_f,
+        free_surface_particles: projected.free_surface,
+        correction_fallbacks,
+        hessian_fallbacks: projected.hessian_fallbacks,
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    sim.t += dt;
+    sim.step += 1;
+    Ok(report)
+}
+
+impl<D: Dim> Integrator<D> for EulerIsph {
+    fn name(&self) -> &'static str {
+        "euler"
+    }
+    fn step(&mut self, sim: &mut Simulation<D>, dt: f64) -> Result<StepReport, StepError> {
+        step_at_current(sim, dt, Equation::Ppe)
+    }
+}
+
+impl<D: Dim> Integrator<D> for DgIsph {
+    fn name(&self) -> &'static str {
+        "dg"
+    }
+    fn step(&mut self, sim: &mut Simulation<D>, dt: f64) -> Result<StepReport, StepError> {
+        step_at_current(sim, dt, Equation::Dg)
+    }
+}
+
+impl<D: Dim> Integrator<D> for PredictorCorrectorIsph {
+    fn name(&self) -> &'static str {
+        "predictor_corrector"
+    }
+    fn step(&mut self, sim: &mut Simulation<D>, dt: f64) -> Result<StepReport, StepError> {
+        let t0 = Instant::now();
+        let (step, t) = (sim.step, sim.t);
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(StepError::InvalidTimeStep { step, dt });
+        }
+        sim.ensure_buffers();
+        intermediate_velocity(sim);
+        let p = &mut sim.particles;
+        // Predictor: x' = xⁿ + Δt uⁿ.
+        for ((xp, x), u) in sim.buf.x_pred.iter_mut().zip(&p.positions).zip(&p.velocities) {
+            *xp = *x + *u * dt;
+        }
+        let correction_fallbacks = prepare(&mut sim.engine, &sim.buf.x_pred, &p.masses, &p.densities, step, t)?;
+        sim.buf.p_work.copy_from_slice(&p.pressures);
+        let projected = project(
+            &mut sim.engine,
+            &sim.buf.x_pred,
+            &p.densities,
+            &sim.buf.u_star,
+            &mut sim.buf.p_work,
+            dt,
+            Equation::Ppe,
+            &mut sim.buf.u_new,
+            step,
+            t,
+        )?;
+        if let Some(particle) = first_non_finite(&sim.buf.u_new) {
+            return Err(StepError::NonFinite { step, t, field: "velocity", particle });
+        }
+        // Corrector: xⁿ⁺¹ = xⁿ + Δt (uⁿ + uⁿ⁺¹)/2.
+        for ((d, u), un) in sim.buf.disp.iter_mut().zip(&p.velocities).zip(&sim.buf.u_new) {
+            *d = (*u + *un) * (0.5 * dt);
+        }
+        let det_f = if sim.engine.config.diagnostics {
+            // The step's deformation is measured from xⁿ: rebuild the lists there.
+            let flags = sim.engine.dirichlet.clone();
+            prepare(&mut sim.engine, &p.positions, &p.masses, &p.densities, step, t)?;
+            sim.engine.dirichlet.copy_from_slice(&flags);
+            Some(det_f_stats(&sim.engine, &p.positions, &sim.buf.disp, &mut sim.buf.det_f))
+        } else {
+            None
+        };
+        commit(sim);
+        finish(sim, dt, projected, correction_fallbacks, det_f, t0)
+    }
+}

@@ -1,0 +1,148 @@
+use crate::config::SimConfig;
+use sph_core::{CoreError, Dim, MatrixOps, ParticleSet, VectorOps};
+use sph_kernels::{AnyKernel, Kernel};
+use sph_neighbors::{AnySearch, NeighborList};
+use sph_pressure::{AnySolver, CsrMatrix};
+
+/// A running simulation: the particles plus everything the schemes share (kernel, neighbour
+/// search and lists, linear solver, scratch buffers). Buffers are allocated on the first step
+/// and reused, so the step loop does not allocate once sizes are stable.
+pub struct Simulation<D: Dim> {
+    /// The particles (structure of arrays).
+    pub particles: ParticleSet<D>,
+    /// Simulated time.
+    pub t: f64,
+    /// Number of completed steps.
+    pub step: usize,
+    pub(crate) engine: Engine<D>,
+    pub(crate) buf: Buffers<D>,
+}
+
+/// Kernel, search, solver and per-step scratch of the projection.
+pub(crate) struct Engine<D: Dim> {
+    pub(crate) config: SimConfig,
+    pub(crate) kernel: AnyKernel<D>,
+    pub(crate) search: AnySearch<D>,
+    pub(crate) neighbors: NeighborList,
+    pub(crate) solver: AnySolver,
+    pub(crate) volumes: Vec<f64>,
+    pub(crate) corrections: Vec<D::Matrix>,
+    pub(crate) div_r: Vec<f64>,
+    pub(crate) dirichlet: Vec<bool>,
+    pub(crate) source: Vec<f64>,
+    pub(crate) a: Vec<D::Matrix>,
+    pub(crate) rhs: Vec<f64>,
+    pub(crate) matrix: CsrMatrix,
+    pub(crate) grad_p: Vec<D::Vector>,
+    pub(crate) scalar: Vec<f64>,
+}
+
+/// Velocity and position buffers of the schemes.
+pub(crate) struct Buffers<D: Dim> {
+    pub(crate) u_star: Vec<D::Vector>,
+    pub(crate) u_new: Vec<D::Vector>,
+    pub(crate) x_pred: Vec<D::Vector>,
+    pub(crate) disp: Vec<D::Vector>,
+    pub(crate) det_f: Vec<D::Matrix>,
+    pub(crate) p_work: Vec<f64>,
+}
+
+// A simulation can be moved to and shared between threads.
+const _: fn() = || {
+    fn is_send_sync<T: Send + Sync>() {}
+    is_send_sync::<Simulation<sph_core::D2>>();
+    is_send_sync::<Simulation<sph_core::D3>>();
+};
+
+impl<D: Dim> Simulation<D> {
+    /// A simulation of `particles` with `config`; fails if the particle arrays are inconsistent
+    /// or hold non-finite values.
+    pub fn new(particles: ParticleSet<D>, config: SimConfig) -> Result<Self, CoreError> {
+        particles.validate()?;
+        let kernel = config.kernel.build::<D>(config.h);
+        let engine = Engine {
+            kernel,
+            search: AnySearch::new(config.search),
+            neighbors: NeighborList::new(),
+            solver: AnySolver::new(config.solver),
+            volumes: Vec::new(),
+            corrections: Vec::new(),
+            div_r: Vec::new(),
+            dirichlet: Vec::new(),
+            source: Vec::new(),
+            a: Vec::new(),
+            rhs: Vec::new(),
+            matrix: CsrMatrix::default(),
+            grad_p: Vec::new(),
+            scalar: Vec::new(),
+            config,
+        };
+        let buf = Buffers {
+            u_star: Vec::new(),
+            u_new: Vec::new(),
+            x_pred: Vec::new(),
+            disp: Vec::new(),
+            det_f: Vec::new(),
+            p_work: Vec::new(),
+        };
+        Ok(Self { particles, t: 0.0, step: 0, engine, buf })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SimConfig {
+        &self.engine.config
+    }
+
+    /// The smoothing kernel.
+    pub fn kernel(&self) -> &AnyKernel<D> {
+        &self.engine.kernel
+    }
+
+    /// Free-surface (Dirichlet) flags of the last projection, one per particle (empty before
+    /// the first step).
+    pub fn free_surface_flags(&self) -> &[bool] {
+        &self.engine.dirichlet
+    }
+
+    /// `∇·r` of the last projection, one per particle (empty before the first step).
+    pub fn div_r(&self) -> &[f64] {
+        &self.engine.div_r
+    }
+
+    /// Neighbour lists of the last projection.
+    pub fn neighbors(&self) -> &NeighborList {
+        &self.engine.neighbors
+    }
+
+    /// Kernel support radius.
+    pub fn support_radius(&self) -> f64 {
+        self.engine.kernel.support_radius()
+    }
+
+    /// Largest particle speed.
+    pub fn max_speed(&self) -> f64 {
+        self.particles.velocities.iter().map(|u| u.length()).fold(0.0, f64::max)
+    }
+
+    /// Resizes every buffer to the particle count.
+    pub(crate) fn ensure_buffers(&mut self) {
+        let n = self.particles.len();
+        let e = &mut self.engine;
+        e.volumes.resize(n, 0.0);
+        e.corrections.resize(n, D::Matrix::IDENTITY);
+        e.div_r.resize(n, 0.0);
+        e.dirichlet.resize(n, false);
+        e.source.resize(n, 0.0);
+        e.a.resize(n, D::Matrix::IDENTITY);
+        e.rhs.resize(n, 0.0);
+        e.grad_p.resize(n, D::Vector::ZERO);
+        e.scalar.resize(n, 0.0);
+        let b = &mut self.buf;
+        b.u_star.resize(n, D::Vector::ZERO);
+        b.u_new.resize(n, D::Vector::ZERO);
+        b.x_pred.resize(n, D::Vector::ZERO);
+        b.disp.resize(n, D::Vector::ZERO);
+        b.det_f.resize(n, D::Matrix::IDENTITY);
+        b.p_work.resize(n, 0.0);
+    }
+}
