@@ -17,6 +17,21 @@ pub struct Cli {
 pub enum Command {
     /// Run the validation cases and compare them with reference data.
     Validate(ValidateArgs),
+    /// Run one scene file and write its time series as CSV.
+    Run(RunArgs),
+}
+
+/// Flags of `cargo xtask run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// Scene file (TOML), e.g. cases/elliptical_drop.toml.
+    pub scene: PathBuf,
+    /// Resolution / duration preset.
+    #[arg(long, value_enum, default_value = "paper")]
+    pub preset: Preset,
+    /// Output directory for the CSV files.
+    #[arg(long, default_value = "target/runs")]
+    pub out: PathBuf,
 }
 
 /// How much to run.
@@ -40,4 +55,7 @@ pub struct ValidateArgs {
     /// Output directory for reports and frames.
     #[arg(long, default_value = "target/validation")]
     pub out: PathBuf,
+    /// Directory of scene files.
+    #[arg(long, default_value = "cases")]
+    pub cases: PathBuf,
 }

@@ -3,10 +3,13 @@
 //! * `cargo xtask validate` runs the validation cases, compares them with reference or exact
 //!   data, prints a pass/fail table, writes `target/validation/summary.json` and exits non-zero
 //!   if any check fails.
+//! * `cargo xtask run SCENE.toml` runs one scene and writes its time series as CSV under
+//!   `target/runs/`.
 //!
 //! xtask owns all file I/O and terminal output; the library crates do none.
 
 mod flags;
+mod run;
 mod validate;
 
 use clap::Parser;
@@ -15,6 +18,9 @@ fn main() -> std::process::ExitCode {
     let cli = flags::Cli::parse();
     let result = match cli.command {
         flags::Command::Validate(args) => validate::run(&args),
+        flags::Command::Run(args) => run::load_scene(&args.scene)
+            .and_then(|scene| run::run_scene(&scene, args.preset, &args.out))
+            .map(|checks| validate::print_checks(&checks)),
     };
     match result {
         Ok(true) => std::process::ExitCode::SUCCESS,

@@ -17,17 +17,57 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
                 .filter(|c| wants(&c.case) || wants("foundation")),
         );
     }
+    let mut scenes: Vec<_> = std::fs::read_dir(&args.cases)
+        .with_context(|| format!("reading scene directory {}", args.cases.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    scenes.sort();
+    for path in scenes {
+        let scene = crate::run::load_scene(&path)?;
+        if !wants(scene.case.name()) {
+            continue;
+        }
+        println!("{} ({:?} preset)", path.display(), args.preset);
+        let t = Instant::now();
+        checks.extend(crate::run::run_scene(&scene, args.preset, &args.out)?);
+        println!("  [{:.1} s]", t.elapsed().as_secs_f64());
+    }
     if checks.is_empty() {
         anyhow::bail!("no validation case matches {:?}", args.case);
     }
-
+    let passed = print_checks(&checks);
     println!(
-        "{:<11} {:<46} {:>13} {:>13} {:>10}  result",
+        "({:?} preset, {:.1} s)",
+        args.preset,
+        t0.elapsed().as_secs_f64()
+    );
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating output directory {}", args.out.display()))?;
+    let summary = args.out.join("summary.json");
+    let json = serde_json::json!({
+        "preset": format!("{:?}", args.preset).to_lowercase(),
+        "passed": passed,
+        "checks": checks.iter().map(|c| serde_json::json!({
+            "case": c.case, "name": c.name, "value": c.value, "reference": c.reference,
+            "tolerance": c.tolerance, "source": c.source, "passed": c.passed(),
+        })).collect::<Vec<_>>(),
+    });
+    std::fs::write(&summary, serde_json::to_string_pretty(&json)?)
+        .with_context(|| format!("writing {}", summary.display()))?;
+    println!("summary: {}", summary.display());
+    Ok(passed)
+}
+
+/// Prints the pass/fail table; returns true if every check passed.
+pub fn print_checks(checks: &[Check]) -> bool {
+    println!(
+        "\n{:<20} {:<48} {:>14} {:>14} {:>10}  result",
         "case", "check", "value", "reference", "tolerance"
     );
-    for c in &checks {
+    for c in checks {
         println!(
-            "{:<11} {:<46} {:>13.6e} {:>13.6e} {:>10.1e}  {}",
+            "{:<20} {:<48} {:>14.6e} {:>14.6e} {:>10.1e}  {}",
             c.case,
             c.name,
             c.value,
@@ -38,27 +78,10 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     }
     let failed = checks.iter().filter(|c| !c.passed()).count();
     println!(
-        "\n{} checks, {} passed, {} failed ({:?} preset, {:.1} s)",
+        "\n{} checks: {} passed, {} failed",
         checks.len(),
         checks.len() - failed,
-        failed,
-        args.preset,
-        t0.elapsed().as_secs_f64()
+        failed
     );
-
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating output directory {}", args.out.display()))?;
-    let summary = args.out.join("summary.json");
-    let json = serde_json::json!({
-        "preset": format!("{:?}", args.preset).to_lowercase(),
-        "passed": failed == 0,
-        "checks": checks.iter().map(|c| serde_json::json!({
-            "case": c.case, "name": c.name, "value": c.value, "reference": c.reference,
-            "tolerance": c.tolerance, "source": c.source, "passed": c.passed(),
-        })).collect::<Vec<_>>(),
-    });
-    std::fs::write(&summary, serde_json::to_string_pretty(&json)?)
-        .with_context(|| format!("writing {}", summary.display()))?;
-    println!("summary: {}", summary.display());
-    Ok(failed == 0)
+    failed == 0
 }

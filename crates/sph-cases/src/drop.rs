@@ -53,20 +53,40 @@ pub fn setup<D: Dim>(scene: &Scene) -> DropSetup<D> {
     let semi = D::Vector::from_fn(|k| if k == 0 { 1.0 } else { 0.7 });
     let positions = crate::geometry::ellipsoid_lattice::<D>(semi, scene.dx);
     let rho0 = 1.0;
-    let mut particles = ParticleSet::<D>::from_positions(positions, scene.dx.powi(D::DIM as i32), rho0);
+    let mut particles =
+        ParticleSet::<D>::from_positions(positions, scene.dx.powi(D::DIM as i32), rho0);
     // u = −100 x, and +100 y (2D) or +50 (y, z) (3D): divergence-free.
     let lateral = 100.0 / (D::DIM as f64 - 1.0);
     for (u, x) in particles.velocities.iter_mut().zip(&particles.positions) {
-        *u = D::Vector::from_fn(|k| if k == 0 { -100.0 * x.get(0) } else { lateral * x.get(k) });
+        *u = D::Vector::from_fn(|k| {
+            if k == 0 {
+                -100.0 * x.get(0)
+            } else {
+                lateral * x.get(k)
+            }
+        });
     }
-    let centre = particles.positions.iter().position(|x| x.length() < 1e-12).expect("lattice contains the origin");
+    let centre = particles
+        .positions
+        .iter()
+        .position(|x| x.length() < 1e-12)
+        .expect("lattice contains the origin");
     let mut config = SimConfig::new(scene.kernel, scene.h_over_dx * scene.dx);
     config.rho0 = rho0;
     config.free_surface = scene.free_surface;
     config.solver = scene.solver;
     config.dg_hessian = scene.dg_hessian.into();
-    let exact = if D::DIM == 2 { DropSolution::elliptical_2d() } else { DropSolution::spheroid_3d() };
-    DropSetup { particles, config, centre, exact }
+    let exact = if D::DIM == 2 {
+        DropSolution::elliptical_2d()
+    } else {
+        DropSolution::spheroid_3d()
+    };
+    DropSetup {
+        particles,
+        config,
+        centre,
+        exact,
+    }
 }
 
 fn record<D: Dim>(
@@ -116,7 +136,10 @@ pub fn run<D: Dim>(
     for (dt, short) in steps {
         let report = integrator
             .step(&mut sim, dt)
-            .map_err(|source| CaseError::Step { scheme: scheme.name(), source })?;
+            .map_err(|source| CaseError::Step {
+                scheme: scheme.name(),
+                source,
+            })?;
         let r = record(&sim, scheme, s.centre, &s.exact, short, Some(report));
         observe(&r)?;
         records.push(r);
@@ -126,7 +149,11 @@ pub fn run<D: Dim>(
 
 /// The last record of a full-size step.
 pub fn last_full_step(records: &[DropRecord]) -> &DropRecord {
-    records.iter().rev().find(|r| !r.short_step).expect("the initial record is never short")
+    records
+        .iter()
+        .rev()
+        .find(|r| !r.short_step)
+        .expect("the initial record is never short")
 }
 
 /// Relative second-moment volume change of the last full step, `V/V₀ − 1`.
@@ -143,13 +170,41 @@ pub fn checks(case: &str, dim: usize, scheme: SchemeKind, records: &[DropRecord]
     let mut out = Vec::new();
     if scheme != SchemeKind::Euler {
         let tol = if dim == 2 { 1e-3 } else { 2e-3 };
-        out.push(Check::new(case, format!("{label} ΔV/V₀ (2nd moments)"), volume_change(records), 0.0, tol, "exact: volume conserved"));
+        out.push(Check::new(
+            case,
+            format!("{label} ΔV/V₀ (2nd moments)"),
+            volume_change(records),
+            0.0,
+            tol,
+            "exact: volume conserved",
+        ));
     }
     let (a, b) = (last.exact.a, last.exact.b);
-    out.push(Check::new(case, format!("{label} semi-axis a"), last.semi_axes[0], a, 0.03 * a, "exact drop solution"));
-    out.push(Check::new(case, format!("{label} semi-axis b"), last.semi_axes[1], b, 0.03 * b, "exact drop solution"));
+    out.push(Check::new(
+        case,
+        format!("{label} semi-axis a"),
+        last.semi_axes[0],
+        a,
+        0.03 * a,
+        "exact drop solution",
+    ));
+    out.push(Check::new(
+        case,
+        format!("{label} semi-axis b"),
+        last.semi_axes[1],
+        b,
+        0.03 * b,
+        "exact drop solution",
+    ));
     let pc = last.exact.p_c;
-    out.push(Check::new(case, format!("{label} central pressure"), last.p_centre, pc, 0.05 * pc, "exact drop solution"));
+    out.push(Check::new(
+        case,
+        format!("{label} central pressure"),
+        last.p_centre,
+        pc,
+        0.05 * pc,
+        "exact drop solution",
+    ));
     out
 }
 
@@ -157,7 +212,14 @@ pub fn checks(case: &str, dim: usize, scheme: SchemeKind, records: &[DropRecord]
 pub fn euler_vs_dg_check(case: &str, euler: &[DropRecord], dg: &[DropRecord]) -> Check {
     let ratio = volume_change(euler).abs() / volume_change(dg).abs().max(1e-300);
     // Pass when ratio ≥ 5: value = min(ratio, 5) compared with 5 within 0.
-    Check::new(case, format!("|ΔV| Euler / DG = {ratio:.1} (≥ 5)"), ratio.min(5.0), 5.0, 0.0, "paper Fig. 3 claim")
+    Check::new(
+        case,
+        format!("|ΔV| Euler / DG = {ratio:.1} (≥ 5)"),
+        ratio.min(5.0),
+        5.0,
+        0.0,
+        "paper Fig. 3 claim",
+    )
 }
 
 /// Mean over interior particles of the exact local volume ratio of one step minus one
@@ -177,7 +239,10 @@ pub fn mean_local_volume_change<D: Dim>(
     let semi = D::Vector::from_fn(|k| if k == 0 { 1.0 } else { 0.7 });
     let inside = |x: &D::Vector| {
         let shrunk = D::Vector::from_fn(|k| semi.get(k) - margin * dx);
-        (0..D::DIM).map(|k| (x.get(k) / shrunk.get(k)).powi(2)).sum::<f64>() <= 1.0
+        (0..D::DIM)
+            .map(|k| (x.get(k) / shrunk.get(k)).powi(2))
+            .sum::<f64>()
+            <= 1.0
     };
     let (mut sum, mut n) = (0.0, 0usize);
     for i in 0..before.len() {

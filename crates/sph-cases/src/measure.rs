@@ -32,7 +32,10 @@ pub fn second_moments<D: Dim>(points: &[D::Vector]) -> Moments {
     let (measure, factor) = if D::DIM == 2 {
         (4.0 * PI * c.determinant().sqrt(), 4.0)
     } else {
-        (4.0 / 3.0 * PI * 5f64.powf(1.5) * c.determinant().sqrt(), 5.0)
+        (
+            4.0 / 3.0 * PI * 5f64.powf(1.5) * c.determinant().sqrt(),
+            5.0,
+        )
     };
     let mut semi_axes = [0.0; 3];
     for (k, s) in semi_axes.iter_mut().enumerate().take(D::DIM) {
@@ -45,8 +48,10 @@ pub fn second_moments<D: Dim>(points: &[D::Vector]) -> Moments {
 /// degenerate cloud.
 pub fn hull_measure<D: Dim>(points: &[D::Vector]) -> Option<f64> {
     if D::DIM == 2 {
-        let pts: Vec<parry2d_f64::math::Vector2> =
-            points.iter().map(|p| parry2d_f64::math::Vector2::new(p.get(0), p.get(1))).collect();
+        let pts: Vec<parry2d_f64::math::Vector2> = points
+            .iter()
+            .map(|p| parry2d_f64::math::Vector2::new(p.get(0), p.get(1)))
+            .collect();
         let hull = parry2d_f64::transformation::convex_hull(&pts);
         if hull.len() < 3 {
             return None;
@@ -67,11 +72,18 @@ pub fn hull_measure<D: Dim>(points: &[D::Vector]) -> Option<f64> {
         if tris.is_empty() {
             return None;
         }
-        let c = verts.iter().fold(parry3d_f64::math::Vector3::ZERO, |a, v| a + *v) / verts.len() as f64;
+        let c = verts
+            .iter()
+            .fold(parry3d_f64::math::Vector3::ZERO, |a, v| a + *v)
+            / verts.len() as f64;
         let vol: f64 = tris
             .iter()
             .map(|t| {
-                let (a, b, d) = (verts[t[0] as usize] - c, verts[t[1] as usize] - c, verts[t[2] as usize] - c);
+                let (a, b, d) = (
+                    verts[t[0] as usize] - c,
+                    verts[t[1] as usize] - c,
+                    verts[t[2] as usize] - c,
+                );
                 a.dot(b.cross(d)) / 6.0
             })
             .sum();
@@ -120,27 +132,45 @@ mod tests {
         let moved: Vec<DVec2> = pts.iter().map(|p| f * *p).collect();
         let (m0, m1) = (second_moments::<D2>(&pts), second_moments::<D2>(&moved));
         assert!((m1.measure / m0.measure - f.determinant()).abs() < 1e-12);
-        let (h0, h1) = (hull_measure::<D2>(&pts).unwrap(), hull_measure::<D2>(&moved).unwrap());
+        let (h0, h1) = (
+            hull_measure::<D2>(&pts).unwrap(),
+            hull_measure::<D2>(&moved).unwrap(),
+        );
         assert!((h1 / h0 - f.determinant()).abs() < 1e-12);
         // Second-moment area of the lattice ellipse is within 1 % of π a b.
-        assert!((m0.measure / (PI * 0.7) - 1.0).abs() < 0.01, "{}", m0.measure);
+        assert!(
+            (m0.measure / (PI * 0.7) - 1.0).abs() < 0.01,
+            "{}",
+            m0.measure
+        );
         assert!((m0.semi_axes[0] - 1.0).abs() < 0.01 && (m0.semi_axes[1] - 0.7).abs() < 0.01);
 
         let pts3 = ellipsoid_lattice::<D3>(DVec3::new(1.0, 0.7, 0.7), 0.1);
         let f3 = DMat3::from_diagonal(DVec3::new(0.9, 1.05, 1.07));
         let moved3: Vec<DVec3> = pts3.iter().map(|p| f3 * *p).collect();
-        let (h0, h1) = (hull_measure::<D3>(&pts3).unwrap(), hull_measure::<D3>(&moved3).unwrap());
+        let (h0, h1) = (
+            hull_measure::<D3>(&pts3).unwrap(),
+            hull_measure::<D3>(&moved3).unwrap(),
+        );
         assert!((h1 / h0 - f3.determinant()).abs() < 1e-10);
         let (m0, m1) = (second_moments::<D3>(&pts3), second_moments::<D3>(&moved3));
         assert!((m1.measure / m0.measure - f3.determinant()).abs() < 1e-12);
-        assert!((m0.measure / (4.0 / 3.0 * PI * 0.49) - 1.0).abs() < 0.03, "{}", m0.measure);
+        assert!(
+            (m0.measure / (4.0 / 3.0 * PI * 0.49) - 1.0).abs() < 0.03,
+            "{}",
+            m0.measure
+        );
     }
 
     #[test]
     fn local_volume_ratio_is_exact_for_affine_maps() {
         let dx = 0.05;
         let pts = ellipsoid_lattice::<D3>(DVec3::new(0.5, 0.5, 0.5), dx);
-        let f = DMat3::from_cols(DVec3::new(1.01, 0.0, 0.002), DVec3::new(0.003, 0.99, 0.0), DVec3::new(0.0, 0.001, 1.0));
+        let f = DMat3::from_cols(
+            DVec3::new(1.01, 0.0, 0.002),
+            DVec3::new(0.003, 0.99, 0.0),
+            DVec3::new(0.0, 0.001, 1.0),
+        );
         let moved: Vec<DVec3> = pts.iter().map(|p| f * *p + DVec3::ONE).collect();
         let mut g = CellGrid::<D3>::new();
         g.build(&pts, 1.5 * dx).unwrap();

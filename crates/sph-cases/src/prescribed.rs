@@ -72,7 +72,12 @@ pub fn run_prescribed<D: Dim>(
     update: PositionUpdate,
 ) -> PrescribedRun {
     let mut series = Vec::with_capacity(steps + 1);
-    let measure = |p: &[D::Vector]| (hull_measure::<D>(p).unwrap_or(f64::NAN), second_moments::<D>(p).measure);
+    let measure = |p: &[D::Vector]| {
+        (
+            hull_measure::<D>(p).unwrap_or(f64::NAN),
+            second_moments::<D>(p).measure,
+        )
+    };
     let (h0, m0) = measure(&points);
     series.push((0.0, h0, m0));
     for n in 1..=steps {
@@ -107,9 +112,25 @@ pub fn run_prescribed<D: Dim>(
 pub fn paper_setup<D: Dim>() -> (D::Vector, D::Matrix) {
     let semi = D::Vector::from_fn(|k| if k == 0 { 1.0 } else { 0.7 });
     let g = if D::DIM == 2 {
-        D::Matrix::from_fn(|i, j| if i != j { 0.0 } else if i == 0 { -100.0 } else { 100.0 })
+        D::Matrix::from_fn(|i, j| {
+            if i != j {
+                0.0
+            } else if i == 0 {
+                -100.0
+            } else {
+                100.0
+            }
+        })
     } else {
-        D::Matrix::from_fn(|i, j| if i != j { 0.0 } else if i == 0 { 100.0 } else { -50.0 })
+        D::Matrix::from_fn(|i, j| {
+            if i != j {
+                0.0
+            } else if i == 0 {
+                100.0
+            } else {
+                -50.0
+            }
+        })
     };
     (semi, g)
 }
@@ -128,10 +149,31 @@ pub fn run_scene<D: Dim>(scene: &Scene) -> (Vec<PrescribedRun>, Vec<Check>) {
         let run = run_prescribed::<D>(pts, g, scene.dt, steps, update);
         let tol = 0.005 * run.exact_slope.abs();
         let label = format!("{} {}D", update.name(), D::DIM);
-        checks.push(Check::new(case, format!("{label} slope (hull)"), run.slope_hull, run.exact_slope, tol, "ln det F/Δt, exact"));
-        checks.push(Check::new(case, format!("{label} slope (2nd moments)"), run.slope_moments, run.exact_slope, tol, "ln det F/Δt, exact"));
+        checks.push(Check::new(
+            case,
+            format!("{label} slope (hull)"),
+            run.slope_hull,
+            run.exact_slope,
+            tol,
+            "ln det F/Δt, exact",
+        ));
+        checks.push(Check::new(
+            case,
+            format!("{label} slope (2nd moments)"),
+            run.slope_moments,
+            run.exact_slope,
+            tol,
+            "ln det F/Δt, exact",
+        ));
         if let Some(tab) = crate::reference::volume_slope(table_case, update.name(), scene.dt) {
-            checks.push(Check::new(case, format!("{label} exact slope vs table"), run.exact_slope, tab, 1e-8 * tab.abs().max(1e-12), "volume_slopes.csv"));
+            checks.push(Check::new(
+                case,
+                format!("{label} exact slope vs table"),
+                run.exact_slope,
+                tab,
+                1e-8 * tab.abs().max(1e-12),
+                "volume_slopes.csv",
+            ));
         }
         runs.push(run);
     }

@@ -42,8 +42,17 @@ impl DropSolution {
             .skip(1)
             .filter(|l| !l.trim().is_empty())
             .map(|l| {
-                let v: Vec<f64> = l.split(',').map(|x| x.trim().parse().expect("embedded reference CSV")).collect();
-                DropState { t: v[0], a: v[1], b: v[2], strain: v[3], p_c: v[4] }
+                let v: Vec<f64> = l
+                    .split(',')
+                    .map(|x| x.trim().parse().expect("embedded reference CSV"))
+                    .collect();
+                DropState {
+                    t: v[0],
+                    a: v[1],
+                    b: v[2],
+                    strain: v[3],
+                    p_c: v[4],
+                }
             })
             .collect();
         Self { rows }
@@ -57,11 +66,20 @@ impl DropSolution {
     /// Linear interpolation at `t` (clamped to the table). The table spacing (≈ 1.2e-5 in 2D)
     /// keeps the interpolation error below 1e-6 relative.
     pub fn at(&self, t: f64) -> DropState {
-        let k = self.rows.partition_point(|r| r.t <= t).clamp(1, self.rows.len() - 1);
+        let k = self
+            .rows
+            .partition_point(|r| r.t <= t)
+            .clamp(1, self.rows.len() - 1);
         let (r0, r1) = (self.rows[k - 1], self.rows[k]);
         let w = ((t - r0.t) / (r1.t - r0.t)).clamp(0.0, 1.0);
         let lerp = |a: f64, b: f64| a + w * (b - a);
-        DropState { t, a: lerp(r0.a, r1.a), b: lerp(r0.b, r1.b), strain: lerp(r0.strain, r1.strain), p_c: lerp(r0.p_c, r1.p_c) }
+        DropState {
+            t,
+            a: lerp(r0.a, r1.a),
+            b: lerp(r0.b, r1.b),
+            strain: lerp(r0.strain, r1.strain),
+            p_c: lerp(r0.p_c, r1.p_c),
+        }
     }
 }
 
@@ -73,7 +91,8 @@ pub fn volume_slope(case: &str, scheme: &str, dt: f64) -> Option<f64> {
     SLOPES.lines().skip(1).find_map(|l| {
         let f: Vec<&str> = l.split(',').collect();
         let row_dt: f64 = f.get(3)?.parse().ok()?;
-        (f[0] == case && f[2] == scheme && (row_dt - dt).abs() < 1e-12).then(|| f[4].parse().ok())?
+        (f[0] == case && f[2] == scheme && (row_dt - dt).abs() < 1e-12)
+            .then(|| f[4].parse().ok())?
     })
 }
 
@@ -86,12 +105,24 @@ mod tests {
         // drop_key_values.csv, quoted: 2D t = 0.003 a = 0.735723639507, p_c = 3489.18692277.
         let d2 = DropSolution::elliptical_2d();
         let s = d2.at(0.003);
-        assert!((s.a - 0.735723639507).abs() < 1e-6 && (s.p_c / 3489.18692277 - 1.0).abs() < 1e-5, "{s:?}");
+        assert!(
+            (s.a - 0.735723639507).abs() < 1e-6 && (s.p_c / 3489.18692277 - 1.0).abs() < 1e-5,
+            "{s:?}"
+        );
         assert!((d2.t_max() - 0.00349389062342).abs() < 1e-12);
         let d3 = DropSolution::spheroid_3d();
         let s = d3.at(0.003);
-        assert!((s.b - 0.826275698272).abs() < 1e-6 && (s.p_c / 2238.31895809 - 1.0).abs() < 1e-5, "{s:?}");
-        assert_eq!(volume_slope("2d_sec3", "euler", 1.25e-4), Some(-1.250097666));
-        assert_eq!(volume_slope("3d_sec3", "pc", 1.25e-4), Some(-0.001925773614));
+        assert!(
+            (s.b - 0.826275698272).abs() < 1e-6 && (s.p_c / 2238.31895809 - 1.0).abs() < 1e-5,
+            "{s:?}"
+        );
+        assert_eq!(
+            volume_slope("2d_sec3", "euler", 1.25e-4),
+            Some(-1.250097666)
+        );
+        assert_eq!(
+            volume_slope("3d_sec3", "pc", 1.25e-4),
+            Some(-0.001925773614)
+        );
     }
 }

@@ -134,8 +134,10 @@ fn default_kernel() -> KernelKind {
 impl Scene {
     /// Parses and validates a scene; `name` is used in error messages.
     pub fn parse(name: &str, text: &str) -> Result<Self, CaseError> {
-        let scene: Scene = toml::from_str(text)
-            .map_err(|e| CaseError::Parse { scene: name.to_string(), message: e.to_string() })?;
+        let scene: Scene = toml::from_str(text).map_err(|e| CaseError::Parse {
+            scene: name.to_string(),
+            message: e.to_string(),
+        })?;
         scene.validate(name)?;
         Ok(scene)
     }
@@ -157,34 +159,65 @@ impl Scene {
     /// Range and consistency checks; errors name the key.
     pub fn validate(&self, name: &str) -> Result<(), CaseError> {
         let bad = |field: &'static str, message: String| {
-            Err(CaseError::Invalid { scene: name.to_string(), field, message })
+            Err(CaseError::Invalid {
+                scene: name.to_string(),
+                field,
+                message,
+            })
         };
         let positive = |x: f64| x.is_finite() && x > 0.0;
         if self.dim != self.case.dim() {
-            return bad("dim", format!("is {}, but {} is a {}D case", self.dim, self.case.name(), self.case.dim()));
+            return bad(
+                "dim",
+                format!(
+                    "is {}, but {} is a {}D case",
+                    self.dim,
+                    self.case.name(),
+                    self.case.dim()
+                ),
+            );
         }
         if !positive(self.dx) {
             return bad("dx", format!("must be a positive number, got {}", self.dx));
         }
         if !(self.h_over_dx.is_finite() && (1.0..=3.0).contains(&self.h_over_dx)) {
-            return bad("h_over_dx", format!("must be in [1, 3], got {}", self.h_over_dx));
+            return bad(
+                "h_over_dx",
+                format!("must be in [1, 3], got {}", self.h_over_dx),
+            );
         }
         if !positive(self.dt) {
             return bad("dt", format!("must be a positive number, got {}", self.dt));
         }
         if !positive(self.t_end) {
-            return bad("t_end", format!("must be a positive number, got {}", self.t_end));
+            return bad(
+                "t_end",
+                format!("must be a positive number, got {}", self.t_end),
+            );
         }
         if self.t_end / self.dt > 1e7 {
-            return bad("t_end", format!("needs {:.1e} steps of dt = {}", self.t_end / self.dt, self.dt));
+            return bad(
+                "t_end",
+                format!(
+                    "needs {:.1e} steps of dt = {}",
+                    self.t_end / self.dt,
+                    self.dt
+                ),
+            );
         }
         if self.schemes.is_empty() {
             return bad("schemes", "must name at least one scheme".into());
         }
         if let Some(fs) = self.free_surface {
             let d = self.dim as f64;
-            if !(fs.div_r_threshold.is_finite() && fs.div_r_threshold > 0.0 && fs.div_r_threshold < d) {
-                return bad("free_surface.div_r_threshold", format!("must be in (0, {d}), got {}", fs.div_r_threshold));
+            if !(fs.div_r_threshold.is_finite()
+                && fs.div_r_threshold > 0.0
+                && fs.div_r_threshold < d)
+            {
+                return bad(
+                    "free_surface.div_r_threshold",
+                    format!("must be in (0, {d}), got {}", fs.div_r_threshold),
+                );
             }
         }
         if let Some(q) = &self.quick {
@@ -225,11 +258,17 @@ div_r_threshold = 1.5
 
     #[test]
     fn unknown_key_is_an_error_naming_it() {
-        let e = Scene::parse("t", &format!("{GOOD}\nviscosity = 1.0")).unwrap_err().to_string();
+        let e = Scene::parse("t", &format!("{GOOD}\nviscosity = 1.0"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("viscosity"), "{e}");
-        let e = Scene::parse("t", &GOOD.replace("div_r_threshold", "threshold")).unwrap_err().to_string();
+        let e = Scene::parse("t", &GOOD.replace("div_r_threshold", "threshold"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("threshold"), "{e}");
-        let e = Scene::parse("t", &GOOD.replace("\"dg\"", "\"dgx\"")).unwrap_err().to_string();
+        let e = Scene::parse("t", &GOOD.replace("\"dg\"", "\"dgx\""))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("dgx"), "{e}");
     }
 
@@ -239,13 +278,21 @@ div_r_threshold = 1.5
             ("dx = 0.025", "dx = -0.025", "`dx`"),
             ("dt = 2e-4", "dt = 0.0", "`dt`"),
             ("dim = 2", "dim = 3", "`dim`"),
-            ("div_r_threshold = 1.5", "div_r_threshold = 2.5", "div_r_threshold"),
+            (
+                "div_r_threshold = 1.5",
+                "div_r_threshold = 2.5",
+                "div_r_threshold",
+            ),
             ("schemes = [\"euler\", \"dg\"]", "schemes = []", "`schemes`"),
         ] {
-            let e = Scene::parse("scene.toml", &GOOD.replace(from, to)).unwrap_err().to_string();
+            let e = Scene::parse("scene.toml", &GOOD.replace(from, to))
+                .unwrap_err()
+                .to_string();
             assert!(e.contains(key) && e.contains("scene.toml"), "{from} -> {e}");
         }
-        let e = Scene::parse("t", "case = \"elliptical_drop\"\ndim = ").unwrap_err().to_string();
+        let e = Scene::parse("t", "case = \"elliptical_drop\"\ndim = ")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line"), "{e}");
     }
 }

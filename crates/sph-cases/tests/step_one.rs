@@ -83,7 +83,12 @@ fn dg_step_error_is_third_order_and_ppe_second_order() {
     let mut e = Vec::new();
     let mut g = Vec::new();
     for dt in [2e-4, 1e-4, 5e-5] {
-        let sc = scene(CaseKind::EllipticalDrop, 0.025, dt, DgHessianChoice::QuadraticFit);
+        let sc = scene(
+            CaseKind::EllipticalDrop,
+            0.025,
+            dt,
+            DgHessianChoice::QuadraticFit,
+        );
         e.push(one_step_bulk::<D2>(&sc, SchemeKind::Euler, margin));
         g.push(one_step_bulk::<D2>(&sc, SchemeKind::Dg, margin));
     }
@@ -96,7 +101,10 @@ fn dg_step_error_is_third_order_and_ppe_second_order() {
     // With the Eq. 25 Hessian the DG step is still second order in volume with a small constant.
     let sc = scene(CaseKind::EllipticalDrop, 0.025, 2e-4, DgHessianChoice::Eq25);
     let eq25 = one_step_bulk::<D2>(&sc, SchemeKind::Dg, margin);
-    assert!(eq25.abs() < 1e-4 * e[0].abs(), "Eq. 25 DG bulk change {eq25}");
+    assert!(
+        eq25.abs() < 1e-4 * e[0].abs(),
+        "Eq. 25 DG bulk change {eq25}"
+    );
 }
 
 #[test]
@@ -107,6 +115,9 @@ fn step_one_3d_spheroid() {
     let (dv_dg, _, _) = one_step::<D3>(&sc, SchemeKind::Dg);
     // Euler: Δt² I2 + Δt³ I3 with I2 = −7500, I3 = −250000: −3.0e-4 − 2e-6 = −3.02e-4.
     assert!((dv_e / -3.02e-4 - 1.0).abs() < 0.05, "Euler ΔV/V = {dv_e}");
-    assert!(dv_pc.abs() < 2e-5 && dv_dg.abs() < 2e-5, "PC {dv_pc}, DG {dv_dg}");
+    assert!(
+        dv_pc.abs() < 2e-5 && dv_dg.abs() < 2e-5,
+        "PC {dv_pc}, DG {dv_dg}"
+    );
     assert!((p_pc / 1475.9 - 1.0).abs() < 0.08, "PC p_c = {p_pc}");
 }

@@ -19,7 +19,9 @@ pub struct FreeSurface {
 impl FreeSurface {
     /// The documented default threshold for dimension `dim`.
     pub fn default_for(dim: usize) -> Self {
-        Self { div_r_threshold: 0.75 * dim as f64 }
+        Self {
+            div_r_threshold: 0.75 * dim as f64,
+        }
     }
 }
 

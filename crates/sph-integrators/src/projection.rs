@@ -94,8 +94,17 @@ pub(crate) fn project<D: Dim>(
             for ((s, v), rho) in e.scalar.iter_mut().zip(&e.volumes).zip(densities) {
                 *s = v * rho;
             }
-            assemble_ppe(&ctx, &e.scalar, densities, &e.source, dt, &e.dirichlet, &mut e.matrix, &mut e.rhs)
-                .map_err(|source| StepError::Assembly { step, t, source })?;
+            assemble_ppe(
+                &ctx,
+                &e.scalar,
+                densities,
+                &e.source,
+                dt,
+                &e.dirichlet,
+                &mut e.matrix,
+                &mut e.rhs,
+            )
+            .map_err(|source| StepError::Assembly { step, t, source })?;
         }
         Equation::Dg => {
             // A = I + Δt ∇u*,  det A − 1 = Δt I1 + Δt² I2 + Δt³ I3 (no cancellation).
@@ -176,9 +185,17 @@ pub(crate) fn det_f_stats<D: Dim>(
         }
     }
     if count == 0 {
-        return DetFStats { min: 1.0, mean: 1.0, max: 1.0 };
+        return DetFStats {
+            min: 1.0,
+            mean: 1.0,
+            max: 1.0,
+        };
     }
-    DetFStats { min, mean: sum / count as f64, max }
+    DetFStats {
+        min,
+        mean: sum / count as f64,
+        max,
+    }
 }
 
 /// First particle with a non-finite entry in `v`, if any.

@@ -44,7 +44,11 @@ pub enum SchemeKind {
 
 impl SchemeKind {
     /// All schemes.
-    pub const ALL: [SchemeKind; 3] = [SchemeKind::Euler, SchemeKind::PredictorCorrector, SchemeKind::Dg];
+    pub const ALL: [SchemeKind; 3] = [
+        SchemeKind::Euler,
+        SchemeKind::PredictorCorrector,
+        SchemeKind::Dg,
+    ];
 
     /// Short name.
     pub fn name(self) -> &'static str {
@@ -115,7 +119,14 @@ fn step_at_current<D: Dim>(
     sim.ensure_buffers();
     intermediate_velocity(sim);
     let p = &mut sim.particles;
-    let correction_fallbacks = prepare(&mut sim.engine, &p.positions, &p.masses, &p.densities, step, t)?;
+    let correction_fallbacks = prepare(
+        &mut sim.engine,
+        &p.positions,
+        &p.masses,
+        &p.densities,
+        step,
+        t,
+    )?;
     // Work on a copy of the pressure so a failed solve leaves the particles untouched.
     sim.buf.p_work.copy_from_slice(&p.pressures);
     let projected = project(
@@ -134,7 +145,12 @@ fn step_at_current<D: Dim>(
         *d = *u * dt;
     }
     if let Some(particle) = first_non_finite(&sim.buf.u_new) {
-        return Err(StepError::NonFinite { step, t, field: "velocity", particle });
+        return Err(StepError::NonFinite {
+            step,
+            t,
+            field: "velocity",
+            particle,
+        });
     }
     let det_f = sim
         .engine
@@ -149,8 +165,11 @@ fn step_at_current<D: Dim>(
 fn commit<D: Dim>(sim: &mut Simulation<D>) {
     let p = &mut sim.particles;
     p.pressures.copy_from_slice(&sim.buf.p_work);
-    for ((x, u), (d, un)) in
-        p.positions.iter_mut().zip(p.velocities.iter_mut()).zip(sim.buf.disp.iter().zip(&sim.buf.u_new))
+    for ((x, u), (d, un)) in p
+        .positions
+        .iter_mut()
+        .zip(p.velocities.iter_mut())
+        .zip(sim.buf.disp.iter().zip(&sim.buf.u_new))
     {
         *x += *d;
         *u = *un;
@@ -214,10 +233,23 @@ impl<D: Dim> Integrator<D> for PredictorCorrectorIsph {
         intermediate_velocity(sim);
         let p = &mut sim.particles;
         // Predictor: x' = xⁿ + Δt uⁿ.
-        for ((xp, x), u) in sim.buf.x_pred.iter_mut().zip(&p.positions).zip(&p.velocities) {
+        for ((xp, x), u) in sim
+            .buf
+            .x_pred
+            .iter_mut()
+            .zip(&p.positions)
+            .zip(&p.velocities)
+        {
             *xp = *x + *u * dt;
         }
-        let correction_fallbacks = prepare(&mut sim.engine, &sim.buf.x_pred, &p.masses, &p.densities, step, t)?;
+        let correction_fallbacks = prepare(
+            &mut sim.engine,
+            &sim.buf.x_pred,
+            &p.masses,
+            &p.densities,
+            step,
+            t,
+        )?;
         sim.buf.p_work.copy_from_slice(&p.pressures);
         let projected = project(
             &mut sim.engine,
@@ -232,18 +264,41 @@ impl<D: Dim> Integrator<D> for PredictorCorrectorIsph {
             t,
         )?;
         if let Some(particle) = first_non_finite(&sim.buf.u_new) {
-            return Err(StepError::NonFinite { step, t, field: "velocity", particle });
+            return Err(StepError::NonFinite {
+                step,
+                t,
+                field: "velocity",
+                particle,
+            });
         }
         // Corrector: xⁿ⁺¹ = xⁿ + Δt (uⁿ + uⁿ⁺¹)/2.
-        for ((d, u), un) in sim.buf.disp.iter_mut().zip(&p.velocities).zip(&sim.buf.u_new) {
+        for ((d, u), un) in sim
+            .buf
+            .disp
+            .iter_mut()
+            .zip(&p.velocities)
+            .zip(&sim.buf.u_new)
+        {
             *d = (*u + *un) * (0.5 * dt);
         }
         let det_f = if sim.engine.config.diagnostics {
             // The step's deformation is measured from xⁿ: rebuild the lists there.
             let flags = sim.engine.dirichlet.clone();
-            prepare(&mut sim.engine, &p.positions, &p.masses, &p.densities, step, t)?;
+            prepare(
+                &mut sim.engine,
+                &p.positions,
+                &p.masses,
+                &p.densities,
+                step,
+                t,
+            )?;
             sim.engine.dirichlet.copy_from_slice(&flags);
-            Some(det_f_stats(&sim.engine, &p.positions, &sim.buf.disp, &mut sim.buf.det_f))
+            Some(det_f_stats(
+                &sim.engine,
+                &p.positions,
+                &sim.buf.disp,
+                &mut sim.buf.det_f,
+            ))
         } else {
             None
         };

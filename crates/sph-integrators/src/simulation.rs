@@ -85,7 +85,13 @@ impl<D: Dim> Simulation<D> {
             det_f: Vec::new(),
             p_work: Vec::new(),
         };
-        Ok(Self { particles, t: 0.0, step: 0, engine, buf })
+        Ok(Self {
+            particles,
+            t: 0.0,
+            step: 0,
+            engine,
+            buf,
+        })
     }
 
     /// The configuration.
@@ -121,7 +127,11 @@ impl<D: Dim> Simulation<D> {
 
     /// Largest particle speed.
     pub fn max_speed(&self) -> f64 {
-        self.particles.velocities.iter().map(|u| u.length()).fold(0.0, f64::max)
+        self.particles
+            .velocities
+            .iter()
+            .map(|u| u.length())
+            .fold(0.0, f64::max)
     }
 
     /// Resizes every buffer to the particle count.

@@ -41,7 +41,12 @@ mod tests {
 
     #[test]
     fn adaptive_takes_the_smallest_limit() {
-        let ts = TimeStep::Adaptive { cfl: 0.25, visc: 0.125, nu: 0.01, max: 1.0 };
+        let ts = TimeStep::Adaptive {
+            cfl: 0.25,
+            visc: 0.125,
+            nu: 0.01,
+            max: 1.0,
+        };
         assert_eq!(ts.dt(0.1, 10.0), 0.25 * 0.1 / 10.0);
         assert_eq!(ts.dt(0.1, 0.0), 0.125 * 0.01 / 0.01);
         assert_eq!(TimeStep::Fixed(2e-4).dt(0.1, 1e9), 2e-4);

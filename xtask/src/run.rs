@@ -1,0 +1,169 @@
+//! Running one scene: time series to CSV, checks against the references.
+
+use crate::flags::Preset;
+use anyhow::Context;
+use sph_cases::drop::{self, DropRecord};
+use sph_cases::{CaseKind, Check, Scene, prescribed};
+use sph_core::{D2, D3, Dim};
+use sph_integrators::SchemeKind;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Reads and validates a scene file.
+pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("reading scene {}", path.display()))?;
+    Ok(Scene::parse(&path.display().to_string(), &text)?)
+}
+
+/// Runs `scene` (with the preset applied), writing `<out>/<case>_<scheme>.csv` per scheme, and
+/// returns its checks.
+pub fn run_scene(scene: &Scene, preset: Preset, out: &Path) -> anyhow::Result<Vec<Check>> {
+    let scene = match preset {
+        Preset::Quick => scene.quick(),
+        Preset::Paper => scene.clone(),
+    };
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    match scene.case {
+        CaseKind::EllipticalDrop => run_drop::<D2>(&scene, out),
+        CaseKind::SpheroidDrop => run_drop::<D3>(&scene, out),
+        CaseKind::PrescribedEllipse => run_prescribed::<D2>(&scene, out),
+        CaseKind::PrescribedEllipsoid => run_prescribed::<D3>(&scene, out),
+    }
+}
+
+fn csv_path(out: &Path, scene: &Scene, scheme: &str) -> PathBuf {
+    out.join(format!("{}_{}.csv", scene.case.name(), scheme))
+}
+
+const DROP_HEADER: &str = "scheme,step,t,short_step,measure_moments,measure_hull,rel_change_moments,rel_change_hull,a,b,a_exact,b_exact,p_centre,p_centre_exact,iterations,rel_residual,max_div_u,det_f_min,det_f_mean,det_f_max,free_surface_particles,step_seconds";
+
+fn drop_row(r: &DropRecord, first: &DropRecord) -> String {
+    let rep = r.report.unwrap_or_default();
+    let det = rep.det_f.unwrap_or_default();
+    format!(
+        "{},{},{:.9e},{},{:.12e},{:.12e},{:.6e},{:.6e},{:.9e},{:.9e},{:.9e},{:.9e},{:.6e},{:.6e},{},{:.3e},{:.6e},{:.9e},{:.9e},{:.9e},{},{:.6e}",
+        r.scheme.name(),
+        r.step,
+        r.t,
+        r.short_step,
+        r.measure_moments,
+        r.measure_hull,
+        r.measure_moments / first.measure_moments - 1.0,
+        r.measure_hull / first.measure_hull - 1.0,
+        r.semi_axes[0],
+        r.semi_axes[1],
+        r.exact.a,
+        r.exact.b,
+        r.p_centre,
+        r.exact.p_c,
+        rep.solve.iterations,
+        rep.solve.rel_residual,
+        rep.max_div_u,
+        det.min,
+        det.mean,
+        det.max,
+        rep.free_surface_particles,
+        rep.seconds,
+    )
+}
+
+fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<Vec<Check>> {
+    let case = scene.case.name();
+    let mut checks = Vec::new();
+    let mut runs = Vec::new();
+    let n_particles = drop::setup::<D>(scene).particles.len();
+    for &scheme in &scene.schemes {
+        let path = csv_path(out, scene, scheme.name());
+        let file =
+            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+        let mut w = std::io::BufWriter::new(file);
+        writeln!(w, "{DROP_HEADER}")?;
+        let mut first: Option<DropRecord> = None;
+        let t0 = std::time::Instant::now();
+        // Each row is flushed as it is produced: a failing step loses nothing already computed.
+        let records = drop::run::<D>(scene, scheme, &mut |r| {
+            let f = first.get_or_insert_with(|| r.clone());
+            writeln!(w, "{}", drop_row(r, f))?;
+            w.flush()
+        });
+        let records = match records {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!(
+                    "  {case} {}: FAILED: {e} (rows so far in {})",
+                    scheme.name(),
+                    path.display()
+                );
+                checks.push(Check::new(
+                    case,
+                    format!("{} run completes", scheme.name()),
+                    0.0,
+                    1.0,
+                    0.0,
+                    &e.to_string(),
+                ));
+                continue;
+            }
+        };
+        let last = drop::last_full_step(&records);
+        let steps = records.len() - 1;
+        let mean_step: f64 = records
+            .iter()
+            .filter_map(|r| r.report.map(|x| x.seconds))
+            .sum::<f64>()
+            / steps.max(1) as f64;
+        let iters: f64 = records
+            .iter()
+            .filter_map(|r| r.report.map(|x| x.solve.iterations as f64))
+            .sum::<f64>()
+            / steps.max(1) as f64;
+        println!(
+            "  {case} {:<19} n={} steps={steps} t={:.5} ΔV/V₀ moments {:+.3e} hull {:+.3e}  a {:.4} ({:.4}) b {:.4} ({:.4})  p_c {:.1} ({:.1})  iters/step {iters:.1}  {:.3} s/step  [{:.1} s]",
+            scheme.name(),
+            n_particles,
+            last.t,
+            drop::volume_change(&records),
+            last.measure_hull / records[0].measure_hull - 1.0,
+            last.semi_axes[0],
+            last.exact.a,
+            last.semi_axes[1],
+            last.exact.b,
+            last.p_centre,
+            last.exact.p_c,
+            mean_step,
+            t0.elapsed().as_secs_f64(),
+        );
+        checks.extend(drop::checks(case, D::DIM, scheme, &records));
+        runs.push((scheme, records));
+    }
+    let find = |k: SchemeKind| runs.iter().find(|(s, _)| *s == k).map(|(_, r)| r);
+    if let (Some(e), Some(g)) = (find(SchemeKind::Euler), find(SchemeKind::Dg)) {
+        checks.push(drop::euler_vs_dg_check(case, e, g));
+    }
+    Ok(checks)
+}
+
+fn run_prescribed<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<Vec<Check>> {
+    let (runs, checks) = prescribed::run_scene::<D>(scene);
+    for run in &runs {
+        let path = csv_path(out, scene, run.update.name());
+        let mut w = std::io::BufWriter::new(
+            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?,
+        );
+        writeln!(w, "t,measure_hull,measure_moments")?;
+        for (t, h, m) in &run.series {
+            writeln!(w, "{t:.9e},{h:.15e},{m:.15e}")?;
+        }
+        println!(
+            "  {} {:<5} n={} slope hull {:+.9e} moments {:+.9e} exact {:+.9e}",
+            scene.case.name(),
+            run.update.name(),
+            run.particles,
+            run.slope_hull,
+            run.slope_moments,
+            run.exact_slope
+        );
+    }
+    Ok(checks)
+}
