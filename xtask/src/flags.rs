@@ -32,6 +32,21 @@ pub struct RunArgs {
     /// Output directory for the CSV files.
     #[arg(long, default_value = "target/runs")]
     pub out: PathBuf,
+    /// Override the scene's particle spacing.
+    #[arg(long)]
+    pub dx: Option<f64>,
+    /// Override the scene's time step.
+    #[arg(long)]
+    pub dt: Option<f64>,
+    /// Override the scene's end time.
+    #[arg(long)]
+    pub t_end: Option<f64>,
+    /// Override the free-surface threshold on ∇·r.
+    #[arg(long)]
+    pub div_r_threshold: Option<f64>,
+    /// Override the DG Hessian (`eq25` or `quadratic_fit`).
+    #[arg(long)]
+    pub dg_hessian: Option<String>,
 }
 
 /// How much to run.

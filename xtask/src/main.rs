@@ -19,6 +19,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         flags::Command::Validate(args) => validate::run(&args),
         flags::Command::Run(args) => run::load_scene(&args.scene)
+            .and_then(|scene| run::apply_overrides(scene, &args))
             .and_then(|scene| run::run_scene(&scene, args.preset, &args.out))
             .map(|checks| validate::print_checks(&checks)),
     };

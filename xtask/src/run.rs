@@ -16,6 +16,33 @@ pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
     Ok(Scene::parse(&path.display().to_string(), &text)?)
 }
 
+/// Applies the command-line overrides of `cargo xtask run` and re-validates the scene.
+pub fn apply_overrides(mut scene: Scene, args: &crate::flags::RunArgs) -> anyhow::Result<Scene> {
+    if let Some(dx) = args.dx {
+        scene.dx = dx;
+    }
+    if let Some(dt) = args.dt {
+        scene.dt = dt;
+    }
+    if let Some(t) = args.t_end {
+        scene.t_end = t;
+    }
+    if let Some(th) = args.div_r_threshold {
+        scene.free_surface = Some(sph_integrators::FreeSurface {
+            div_r_threshold: th,
+        });
+    }
+    if let Some(h) = &args.dg_hessian {
+        scene.dg_hessian = match h.as_str() {
+            "eq25" => sph_cases::DgHessianChoice::Eq25,
+            "quadratic_fit" => sph_cases::DgHessianChoice::QuadraticFit,
+            other => anyhow::bail!("--dg-hessian must be eq25 or quadratic_fit, got {other:?}"),
+        };
+    }
+    scene.validate("command-line overrides")?;
+    Ok(scene)
+}
+
 /// Runs `scene` (with the preset applied), writing `<out>/<case>_<scheme>.csv` per scheme, and
 /// returns its checks.
 pub fn run_scene(scene: &Scene, preset: Preset, out: &Path) -> anyhow::Result<Vec<Check>> {
@@ -101,7 +128,7 @@ fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<Vec<Check>> {
                     0.0,
                     1.0,
                     0.0,
-                    &e.to_string(),
+                    e.to_string(),
                 ));
                 continue;
             }

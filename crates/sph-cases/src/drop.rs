@@ -246,11 +246,11 @@ pub fn mean_local_volume_change<D: Dim>(
     };
     let (mut sum, mut n) = (0.0, 0usize);
     for i in 0..before.len() {
-        if inside(&before[i]) {
-            if let Some(r) = crate::measure::local_volume_ratio::<D>(before, after, &nl, i) {
-                sum += r - 1.0;
-                n += 1;
-            }
+        if inside(&before[i])
+            && let Some(r) = crate::measure::local_volume_ratio::<D>(before, after, &nl, i)
+        {
+            sum += r - 1.0;
+            n += 1;
         }
     }
     sum / n as f64

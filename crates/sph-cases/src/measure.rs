@@ -73,7 +73,9 @@ pub fn hull_measure<D: Dim>(points: &[D::Vector]) -> Option<f64> {
         }
         Some(0.5 * twice.abs())
     } else {
-        let (lo, hi) = points.iter().fold((points[0], points[0]), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let (lo, hi) = points.iter().fold((points[0], points[0]), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
         let joggle = 1e-9 * (hi - lo).length();
         let mut rng = sph_core::testing::SplitMix64::new(0x6a09e667);
         let pts: Vec<parry3d_f64::math::Vector3> = points
@@ -191,7 +193,10 @@ mod tests {
                 *p = f * *p;
             }
             let ratio = hull_measure::<D3>(&pts).unwrap() / v0;
-            assert!((ratio / f.determinant().powi(n) - 1.0).abs() < 1e-8, "step {n}: {ratio}");
+            assert!(
+                (ratio / f.determinant().powi(n) - 1.0).abs() < 1e-8,
+                "step {n}: {ratio}"
+            );
         }
     }
 

@@ -113,7 +113,7 @@ pub struct Scene {
     pub schemes: Vec<SchemeKind>,
     /// Free surface; absent means none.
     pub free_surface: Option<FreeSurface>,
-    /// Linear solver. Default BiCGSTAB + ILU(0).
+    /// Linear solver. Default BiCGSTAB + Jacobi.
     #[serde(default)]
     pub solver: SolverKind,
     /// Hessian of the DG equation. Default `eq25`.

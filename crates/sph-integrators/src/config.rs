@@ -43,7 +43,7 @@ pub struct SimConfig {
     pub renormalise: bool,
     /// Hessian in the DG equation. Default `Eq25` (the paper's, coefficient corrected).
     pub dg_hessian: HessianForm,
-    /// Linear solver. Default BiCGSTAB + ILU(0).
+    /// Linear solver. Default BiCGSTAB + Jacobi.
     pub solver: SolverKind,
     /// Solver tolerances.
     pub solve: SolveParams,
@@ -65,7 +65,7 @@ impl SimConfig {
             gradient: GradientForm::Difference,
             renormalise: true,
             dg_hessian: HessianForm::Eq25,
-            solver: SolverKind::BicgstabIlu0,
+            solver: SolverKind::BicgstabJacobi,
             solve: SolveParams::default(),
             search: SearchKind::CellGrid,
             diagnostics: true,

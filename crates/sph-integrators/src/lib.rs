@@ -22,6 +22,8 @@ mod projection;
 mod report;
 mod schemes;
 mod simulation;
+#[cfg(test)]
+mod tests;
 mod time_step;
 
 pub use config::{FreeSurface, SimConfig};

@@ -45,6 +45,7 @@ pub(crate) struct Buffers<D: Dim> {
     pub(crate) disp: Vec<D::Vector>,
     pub(crate) det_f: Vec<D::Matrix>,
     pub(crate) p_work: Vec<f64>,
+    pub(crate) flags: Vec<bool>,
 }
 
 // A simulation can be moved to and shared between threads.
@@ -84,6 +85,7 @@ impl<D: Dim> Simulation<D> {
             disp: Vec::new(),
             det_f: Vec::new(),
             p_work: Vec::new(),
+            flags: Vec::new(),
         };
         Ok(Self {
             particles,
@@ -154,5 +156,6 @@ impl<D: Dim> Simulation<D> {
         b.disp.resize(n, D::Vector::ZERO);
         b.det_f.resize(n, D::Matrix::IDENTITY);
         b.p_work.resize(n, 0.0);
+        b.flags.resize(n, false);
     }
 }

@@ -1,3 +1,5 @@
-//! Physics tests of the three ISPH schemes on the paper's drops.
+//! Physics tests of the three ISPH schemes and of the paper's Section 3 analysis.
 
+mod drop_runs;
+mod section3;
 mod step_one;

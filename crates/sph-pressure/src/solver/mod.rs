@@ -89,10 +89,13 @@ pub trait LinearSolver: Send {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SolverKind {
-    /// BiCGSTAB with Jacobi preconditioning (cheap setup, parallel).
-    BicgstabJacobi,
-    /// BiCGSTAB with ILU(0) preconditioning (fewer iterations, sequential setup). The default.
+    /// BiCGSTAB with Jacobi preconditioning (no setup, parallel). The default: on the paper's
+    /// drops it matches ILU(0) in 2D (0.032 vs 0.033 s/step, 3.5k particles) and is 4.4× faster
+    /// in 3D (0.50 vs 2.19 s/step, 16k particles), where ILU(0)'s sequential setup on ~250
+    /// neighbours per row dominates.
     #[default]
+    BicgstabJacobi,
+    /// BiCGSTAB with ILU(0) preconditioning (4–5× fewer iterations, sequential setup).
     BicgstabIlu0,
     /// faer sparse LU (direct). Small systems and tests only.
     SparseLu,
@@ -101,8 +104,8 @@ pub enum SolverKind {
 /// A solver chosen at run time.
 #[derive(Debug)]
 pub enum AnySolver {
-    /// See [`BiCgStab`].
-    BiCgStab(BiCgStab),
+    /// See [`BiCgStab`] (boxed: it owns its work buffers).
+    BiCgStab(Box<BiCgStab>),
     /// See [`SparseLu`].
     SparseLu(SparseLu),
 }
@@ -112,9 +115,9 @@ impl AnySolver {
     pub fn new(kind: SolverKind) -> Self {
         match kind {
             SolverKind::BicgstabJacobi => {
-                AnySolver::BiCgStab(BiCgStab::new(Preconditioner::Jacobi))
+                AnySolver::BiCgStab(Box::new(BiCgStab::new(Preconditioner::Jacobi)))
             }
-            SolverKind::BicgstabIlu0 => AnySolver::BiCgStab(BiCgStab::new(Preconditioner::Ilu0)),
+            SolverKind::BicgstabIlu0 => AnySolver::BiCgStab(Box::new(BiCgStab::new(Preconditioner::Ilu0))),
             SolverKind::SparseLu => AnySolver::SparseLu(SparseLu),
         }
     }

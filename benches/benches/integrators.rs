@@ -1,0 +1,63 @@
+//! One full time step of each scheme on the paper's drops (`integrators/<scheme>/<dim>/<n>`),
+//! diagnostics off, from the same initial state: the cost of DG relative to Euler and PC.
+
+use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
+use sph_cases::drop::setup;
+use sph_cases::{CaseKind, DgHessianChoice, Scene};
+use sph_core::{D2, D3, Dim};
+use sph_integrators::{FreeSurface, Integrator, Scheme, SchemeKind, Simulation};
+use sph_kernels::KernelKind;
+use std::hint::black_box;
+
+fn bench<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
+    let mut group = c.benchmark_group("integrators");
+    group.sample_size(10);
+    let scene = Scene {
+        case,
+        dim: D::DIM,
+        dx,
+        h_over_dx: 1.3,
+        kernel: KernelKind::QuinticSpline,
+        dt: 2e-4,
+        t_end: 2e-4,
+        schemes: SchemeKind::ALL.to_vec(),
+        free_surface: Some(FreeSurface::default_for(D::DIM)),
+        solver: Default::default(),
+        dg_hessian: DgHessianChoice::Eq25,
+        quick: None,
+    };
+    let s = setup::<D>(&scene);
+    let n = s.particles.len();
+    let mut config = s.config.clone();
+    config.diagnostics = false;
+    for kind in SchemeKind::ALL {
+        group.bench_function(
+            BenchmarkId::new(format!("{}/{}", kind.name(), D::NAME), n),
+            |b| {
+                b.iter_batched(
+                    || Simulation::new(s.particles.clone(), config.clone()).unwrap(),
+                    |mut sim| {
+                        black_box(
+                            Scheme::new(kind)
+                                .step(&mut sim, scene.dt)
+                                .unwrap()
+                                .solve
+                                .iterations,
+                        )
+                    },
+                    BatchSize::LargeInput,
+                )
+            },
+        );
+    }
+    group.finish();
+}
+
+fn integrators(c: &mut Criterion) {
+    bench::<D2>(c, CaseKind::EllipticalDrop, 0.025);
+    bench::<D2>(c, CaseKind::EllipticalDrop, 0.0125);
+    bench::<D3>(c, CaseKind::SpheroidDrop, 0.05);
+}
+
+criterion_group!(benches, integrators);
+criterion_main!(benches);

@@ -1,0 +1,145 @@
+//! Pressure-equation assembly (PPE and DG, `pressure/assemble_<eq>/<dim>/<n>`) on perturbed
+//! lattices, and each solver on the assembled matrices of the paper's drops after one step
+//! (`pressure/solve_<solver>/<dim>/<n>`).
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use dgsph_benches::{H, RADIUS, particles};
+use sph_cases::drop::setup;
+use sph_cases::{CaseKind, DgHessianChoice, Scene};
+use sph_core::{D2, D3, Dim, MatrixOps, VectorOps};
+use sph_integrators::{FreeSurface, SchemeKind};
+use sph_kernels::{KernelKind, QuinticSpline};
+use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
+use sph_operators::{SphContext, free_surface_indicator};
+use sph_pressure::{
+    AnySolver, CsrMatrix, CsrSystem, DgHessian, LinearSolver, SolveParams, SolverKind, assemble_dg,
+    assemble_ppe,
+};
+use std::hint::black_box;
+
+fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
+    let mut group = c.benchmark_group("pressure");
+    group.sample_size(10);
+    for &n in sizes {
+        let pts = particles::<D>(n);
+        let mut grid = CellGrid::<D>::new();
+        grid.build(&pts, RADIUS).unwrap();
+        let mut nl = NeighborList::new();
+        grid.query(&pts, &mut nl);
+        let kernel = QuinticSpline::<D>::new(H);
+        let n = pts.len();
+        let ones = vec![1.0; n];
+        let ctx = SphContext::new(&pts, &ones, &nl, &kernel);
+        let mut div_r = vec![0.0; n];
+        free_surface_indicator(&ctx, &mut div_r);
+        let dirichlet: Vec<bool> = div_r.iter().map(|d| *d < 0.75 * D::DIM as f64).collect();
+        let src: Vec<f64> = pts.iter().map(|x| x.get(0) * 1e-3).collect();
+        let a: Vec<D::Matrix> = pts
+            .iter()
+            .map(|x| D::Matrix::IDENTITY + D::Matrix::outer(*x, *x) * 1e-6)
+            .collect();
+        let mut m = CsrMatrix::default();
+        let mut rhs = vec![0.0; n];
+        group.bench_function(
+            BenchmarkId::new(format!("assemble_ppe/{}", D::NAME), n),
+            |b| {
+                b.iter(|| {
+                    assemble_ppe(&ctx, &ones, &ones, &src, 1e-3, &dirichlet, &mut m, &mut rhs)
+                        .unwrap();
+                    black_box(m.values[0])
+                })
+            },
+        );
+        for (name, h) in [
+            ("assemble_dg_eq25", DgHessian::Eq25),
+            ("assemble_dg_fit", DgHessian::QuadraticFit),
+        ] {
+            group.bench_function(BenchmarkId::new(format!("{name}/{}", D::NAME), n), |b| {
+                b.iter(|| {
+                    assemble_dg(&ctx, &ones, &a, &src, 1e-3, h, &dirichlet, &mut m, &mut rhs)
+                        .unwrap();
+                    black_box(m.values[0])
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+/// The drop's matrices after one step of each equation, solved by each solver from zero.
+fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
+    let mut group = c.benchmark_group("pressure");
+    group.sample_size(10);
+    let scene = Scene {
+        case,
+        dim: D::DIM,
+        dx,
+        h_over_dx: 1.3,
+        kernel: KernelKind::QuinticSpline,
+        dt: 2e-4,
+        t_end: 2e-4,
+        schemes: vec![SchemeKind::Dg],
+        free_surface: Some(FreeSurface::default_for(D::DIM)),
+        solver: SolverKind::BicgstabJacobi,
+        dg_hessian: DgHessianChoice::Eq25,
+        quick: None,
+    };
+    let s = setup::<D>(&scene);
+    let pts = &s.particles.positions;
+    let n = pts.len();
+    let kernel = QuinticSpline::<D>::new(1.3 * dx);
+    let mut grid = CellGrid::<D>::new();
+    grid.build(pts, 3.0 * 1.3 * dx).unwrap();
+    let mut nl = NeighborList::new();
+    grid.query(pts, &mut nl);
+    let vols = vec![dx.powi(D::DIM as i32); n];
+    let ctx = SphContext::new(pts, &vols, &nl, &kernel);
+    let mut div_r = vec![0.0; n];
+    free_surface_indicator(&ctx, &mut div_r);
+    let dirichlet: Vec<bool> = div_r.iter().map(|d| *d < 0.75 * D::DIM as f64).collect();
+    // Source of the PC step: ∇·u* ≈ −Δt tr(G²) in the bulk.
+    let src = vec![-2e-4 * 2e4; n];
+    let mut m = CsrMatrix::default();
+    let mut rhs = vec![0.0; n];
+    let ones = vec![1.0; n];
+    assemble_ppe(&ctx, &vols, &ones, &src, 2e-4, &dirichlet, &mut m, &mut rhs).unwrap();
+    let sys = CsrSystem {
+        offsets: nl.offsets(),
+        cols: nl.indices(),
+        values: &m.values,
+        rhs: &rhs,
+    };
+    let params = SolveParams::default();
+    for kind in [
+        SolverKind::BicgstabJacobi,
+        SolverKind::BicgstabIlu0,
+        SolverKind::SparseLu,
+    ] {
+        if kind == SolverKind::SparseLu && D::DIM == 3 && n > 20_000 {
+            continue;
+        }
+        let mut solver = AnySolver::new(kind);
+        let mut x = vec![0.0; n];
+        group.bench_function(
+            BenchmarkId::new(format!("solve_{kind:?}/{}", D::NAME), n),
+            |b| {
+                b.iter(|| {
+                    x.fill(0.0);
+                    black_box(solver.solve(&sys, &mut x, &params).unwrap().iterations)
+                })
+            },
+        );
+    }
+    group.finish();
+}
+
+fn pressure(c: &mut Criterion) {
+    assembly::<D2>(c, &[10_000, 100_000]);
+    assembly::<D3>(c, &[10_000, 100_000]);
+    solvers::<D2>(c, CaseKind::EllipticalDrop, 0.025);
+    solvers::<D2>(c, CaseKind::EllipticalDrop, 0.0125);
+    solvers::<D3>(c, CaseKind::SpheroidDrop, 0.05);
+}
+
+criterion_group!(benches, pressure);
+criterion_main!(benches);

@@ -1,0 +1,117 @@
+//! Scheme-level tests on a small drop: failures are reported with context and leave the
+//! particles as they were.
+
+use crate::*;
+use sph_core::{D2, D3, Dim, ParticleSet, VectorOps};
+use sph_kernels::KernelKind;
+use sph_pressure::{SolveError, SolveParams};
+
+/// A small lattice disc/ball of radius 0.3 with u = (−100x, 100y[, 0]) (divergence-free), dx = 0.05.
+fn drop<D: Dim>() -> (ParticleSet<D>, SimConfig) {
+    let dx = 0.05;
+    let n = 13i64;
+    let mut pts = Vec::new();
+    let zr = if D::DIM == 3 { n / 2 } else { 0 };
+    for k in -zr..=zr {
+        for j in -n / 2..=n / 2 {
+            for i in -n / 2..=n / 2 {
+                let idx = [i, j, k];
+                let x = D::Vector::from_fn(|c| idx[c] as f64 * dx);
+                if x.length() <= 0.3 {
+                    pts.push(x);
+                }
+            }
+        }
+    }
+    let mut p = ParticleSet::<D>::from_positions(pts, dx.powi(D::DIM as i32), 1.0);
+    for (u, x) in p.velocities.iter_mut().zip(&p.positions) {
+        *u = D::Vector::from_fn(|c| match c {
+            0 => -100.0 * x.get(0),
+            1 => 100.0 * x.get(1),
+            _ => 0.0,
+        });
+    }
+    let mut cfg = SimConfig::new(KernelKind::QuinticSpline, 1.3 * dx);
+    cfg.free_surface = Some(FreeSurface::default_for(D::DIM));
+    (p, cfg)
+}
+
+sph_core::dim_tests! {
+    fn every_scheme_steps_and_reports<D>() {
+        for kind in SchemeKind::ALL {
+            let (p, cfg) = drop::<D>();
+            let mut sim = Simulation::new(p, cfg).unwrap();
+            let mut scheme = Scheme::new(kind);
+            for _ in 0..3 {
+                let r = scheme.step(&mut sim, 1e-4).unwrap();
+                assert!(r.solve.rel_residual <= 1e-8, "{kind:?}: {r:?}");
+                assert!(r.free_surface_particles > 0);
+                let det = r.det_f.unwrap();
+                assert!(det.min > 0.99 && det.max < 1.01, "{kind:?}: {det:?}");
+            }
+            assert_eq!(sim.step, 3);
+            assert!((sim.t - 3e-4).abs() < 1e-15);
+            assert_eq!(sim.free_surface_flags().len(), sim.particles.len());
+        }
+    }
+
+    fn nan_mid_run_is_an_error_and_loses_nothing<D>() {
+        for kind in SchemeKind::ALL {
+            let (p, cfg) = drop::<D>();
+            let mut sim = Simulation::new(p, cfg).unwrap();
+            let mut scheme = Scheme::new(kind);
+            scheme.step(&mut sim, 1e-4).unwrap();
+            let bad = sim.particles.len() / 2;
+            sim.particles.velocities[bad].set(0, f64::NAN);
+            let before = sim.particles.clone();
+            let err = scheme.step(&mut sim, 1e-4).unwrap_err();
+            let msg = err.to_string();
+            assert!(msg.contains("step 1"), "{kind:?}: {msg}");
+            match err {
+                StepError::Assembly { .. } | StepError::NonFinite { .. } | StepError::Neighbors { .. } => {}
+                e => panic!("{kind:?}: unexpected {e:?}"),
+            }
+            // Nothing already computed is lost: the particles are exactly as before the step.
+            assert_eq!(sim.particles.positions, before.positions);
+            assert_eq!(sim.particles.pressures, before.pressures);
+            assert_eq!(sim.step, 1);
+        }
+    }
+
+    fn solver_failure_carries_iterations_and_residual<D>() {
+        let (p, mut cfg) = drop::<D>();
+        cfg.solve = SolveParams { rel_tolerance: 1e-14, max_iterations: 1 };
+        let mut sim = Simulation::new(p, cfg).unwrap();
+        let positions = sim.particles.positions.clone();
+        // PC: the predicted configuration has ∇·u* ≠ 0, so the solve has work to do.
+        let err = Scheme::new(SchemeKind::PredictorCorrector).step(&mut sim, 1e-4).unwrap_err();
+        match &err {
+            StepError::Solve { step: 0, source: SolveError::NoConvergence { iterations: 1, rel_residual, .. }, .. } => {
+                assert!(*rel_residual > 1e-14);
+            }
+            e => panic!("unexpected {e:?}"),
+        }
+        assert!(err.to_string().contains("did not converge"), "{err}");
+        assert_eq!(sim.particles.positions, positions);
+    }
+
+    fn invalid_time_step_is_an_error<D>() {
+        let (p, cfg) = drop::<D>();
+        let mut sim = Simulation::new(p, cfg).unwrap();
+        for dt in [0.0, -1e-4, f64::NAN] {
+            let e = Scheme::new(SchemeKind::Dg).step(&mut sim, dt).unwrap_err();
+            assert!(matches!(e, StepError::InvalidTimeStep { step: 0, .. }));
+        }
+    }
+}
+
+#[test]
+fn inconsistent_particles_are_rejected() {
+    let (mut p, cfg) = drop::<D2>();
+    p.masses.pop();
+    assert!(Simulation::new(p, cfg).is_err());
+    let (mut p, cfg) = drop::<D3>();
+    p.positions[0].x = f64::INFINITY;
+    let err = Simulation::new(p, cfg).err().unwrap();
+    assert!(err.to_string().contains("positions"), "{err}");
+}
