@@ -1,7 +1,8 @@
-//! Neighbour search: cell grid vs kiddo kd-tree, build + self-join query, `neighbors/<kind>/<dim>/<n>`.
+//! Neighbour search: cell grid vs kiddo kd-tree, build + self-join query, `neighbors/<kind>/<dim>/<n>`,
+//! on shuffled particles (the worst case for locality).
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use dgsph_benches::{RADIUS, particles};
+use dgsph_benches::{RADIUS, particles_shuffled};
 use sph_core::{D2, D3, Dim};
 use sph_neighbors::{AnySearch, NeighborList, NeighborSearch, SearchKind};
 use std::hint::black_box;
@@ -10,7 +11,7 @@ fn bench_dim<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
     let mut group = c.benchmark_group("neighbors");
     group.sample_size(10);
     for &n in sizes {
-        let pts = particles::<D>(n);
+        let pts = particles_shuffled::<D>(n);
         for (name, kind) in [
             ("cell_grid", SearchKind::CellGrid),
             ("kd_tree", SearchKind::KdTree),

@@ -4,7 +4,8 @@
 use sph_core::testing::{SplitMix64, lattice};
 use sph_core::{Dim, VectorOps};
 
-/// A perturbed lattice of about `n` particles (spacing `dx = 1`, jitter ±10 %), seeded.
+/// A perturbed lattice of about `n` particles (spacing `dx = 1`, jitter ±10 %), seeded, in
+/// lattice (x-fastest) order: the memory order a simulation keeps its particles in.
 pub fn particles<D: Dim>(n: usize) -> Vec<D::Vector> {
     let per_side = (n as f64).powf(1.0 / D::DIM as f64).round() as usize;
     let mut pts = lattice::<D>(per_side, 1.0);
@@ -12,7 +13,13 @@ pub fn particles<D: Dim>(n: usize) -> Vec<D::Vector> {
     for p in pts.iter_mut() {
         *p += rng.vector::<D>(-0.1, 0.1);
     }
-    // Shuffle so the input order is not already cell order (as after many time steps).
+    pts
+}
+
+/// [`particles`] in random order: the worst case for memory locality.
+pub fn particles_shuffled<D: Dim>(n: usize) -> Vec<D::Vector> {
+    let mut pts = particles::<D>(n);
+    let mut rng = SplitMix64::new(2025);
     for i in (1..pts.len()).rev() {
         let j = (rng.next_u64() % (i as u64 + 1)) as usize;
         pts.swap(i, j);

@@ -105,11 +105,23 @@ fn intermediate_velocity<D: Dim>(sim: &mut Simulation<D>) {
     sim.buf.u_star.copy_from_slice(&sim.particles.velocities);
 }
 
-/// The single-configuration schemes (Euler, DG): projection at `xⁿ`, `xⁿ⁺¹ = xⁿ + Δt uⁿ⁺¹`.
-fn step_at_current<D: Dim>(
+/// Where the projection is evaluated and how positions are advanced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PositionRule {
+    /// Projection at `xⁿ`; `xⁿ⁺¹ = xⁿ + Δt uⁿ⁺¹` (Euler, DG).
+    Current,
+    /// Projection at `x' = xⁿ + Δt uⁿ`; `xⁿ⁺¹ = xⁿ + Δt (uⁿ + uⁿ⁺¹)/2` (predictor–corrector).
+    Predicted,
+}
+
+/// One projection step: `u*` → (predictor) → neighbours, flags, corrections → pressure solve →
+/// `uⁿ⁺¹` → displacement → (diagnostics) → commit. Nothing is written to the particles before
+/// every fallible part has succeeded.
+fn projection_step<D: Dim>(
     sim: &mut Simulation<D>,
     dt: f64,
     equation: Equation,
+    rule: PositionRule,
 ) -> Result<StepReport, StepError> {
     let t0 = Instant::now();
     let (step, t) = (sim.step, sim.t);
@@ -118,20 +130,28 @@ fn step_at_current<D: Dim>(
     }
     sim.ensure_buffers();
     intermediate_velocity(sim);
-    let p = &mut sim.particles;
-    let correction_fallbacks = prepare(
-        &mut sim.engine,
-        &p.positions,
-        &p.masses,
-        &p.densities,
-        step,
-        t,
-    )?;
+    let p = &sim.particles;
+    let x_eval = match rule {
+        PositionRule::Current => &p.positions,
+        PositionRule::Predicted => {
+            for ((xp, x), u) in sim
+                .buf
+                .x_pred
+                .iter_mut()
+                .zip(&p.positions)
+                .zip(&p.velocities)
+            {
+                *xp = *x + *u * dt;
+            }
+            &sim.buf.x_pred
+        }
+    };
+    let correction_fallbacks = prepare(&mut sim.engine, x_eval, &p.masses, &p.densities, step, t)?;
     // Work on a copy of the pressure so a failed solve leaves the particles untouched.
     sim.buf.p_work.copy_from_slice(&p.pressures);
     let projected = project(
         &mut sim.engine,
-        &p.positions,
+        x_eval,
         &p.densities,
         &sim.buf.u_star,
         &mut sim.buf.p_work,
@@ -141,9 +161,6 @@ fn step_at_current<D: Dim>(
         step,
         t,
     )?;
-    for (d, u) in sim.buf.disp.iter_mut().zip(&sim.buf.u_new) {
-        *d = *u * dt;
-    }
     if let Some(particle) = first_non_finite(&sim.buf.u_new) {
         return Err(StepError::NonFinite {
             step,
@@ -152,13 +169,59 @@ fn step_at_current<D: Dim>(
             particle,
         });
     }
-    let det_f = sim
-        .engine
-        .config
-        .diagnostics
-        .then(|| det_f_stats(&sim.engine, &p.positions, &sim.buf.disp, &mut sim.buf.det_f));
+    let half = 0.5 * dt;
+    for ((d, u), un) in sim
+        .buf
+        .disp
+        .iter_mut()
+        .zip(&p.velocities)
+        .zip(&sim.buf.u_new)
+    {
+        *d = match rule {
+            PositionRule::Current => *un * dt,
+            PositionRule::Predicted => (*u + *un) * half,
+        };
+    }
+    let det_f = if sim.engine.config.diagnostics {
+        if rule == PositionRule::Predicted {
+            // The step's deformation is measured from xⁿ: rebuild the lists there (keeping the
+            // free-surface flags of the projection).
+            sim.buf.flags.copy_from_slice(&sim.engine.dirichlet);
+            prepare(
+                &mut sim.engine,
+                &p.positions,
+                &p.masses,
+                &p.densities,
+                step,
+                t,
+            )?;
+            sim.engine.dirichlet.copy_from_slice(&sim.buf.flags);
+        }
+        Some(det_f_stats(
+            &sim.engine,
+            &p.positions,
+            &sim.buf.disp,
+            &mut sim.buf.det_f,
+        ))
+    } else {
+        None
+    };
     commit(sim);
-    finish(sim, dt, projected, correction_fallbacks, det_f, t0)
+    let report = StepReport {
+        step,
+        t: t + dt,
+        dt,
+        solve: projected.solve,
+        max_div_u: projected.max_div_u,
+        det_f,
+        free_surface_particles: projected.free_surface,
+        correction_fallbacks,
+        hessian_fallbacks: projected.hessian_fallbacks,
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    sim.t += dt;
+    sim.step += 1;
+    Ok(report)
 }
 
 /// Writes the step's results to the particles: `x += disp`, `u = u_new`, `p = p_work`.
@@ -176,37 +239,12 @@ fn commit<D: Dim>(sim: &mut Simulation<D>) {
     }
 }
 
-fn finish<D: Dim>(
-    sim: &mut Simulation<D>,
-    dt: f64,
-    projected: crate::projection::Projected,
-    correction_fallbacks: usize,
-    det_f: Option<crate::DetFStats>,
-    t0: Instant,
-) -> Result<StepReport, StepError> {
-    let report = StepReport {
-        step: sim.step,
-        t: sim.t + dt,
-        dt,
-        solve: projected.solve,
-        max_div_u: projected.max_div_u,
-        det_f,
-        free_surface_particles: projected.free_surface,
-        correction_fallbacks,
-        hessian_fallbacks: projected.hessian_fallbacks,
-        seconds: t0.elapsed().as_secs_f64(),
-    };
-    sim.t += dt;
-    sim.step += 1;
-    Ok(report)
-}
-
 impl<D: Dim> Integrator<D> for EulerIsph {
     fn name(&self) -> &'static str {
         "euler"
     }
     fn step(&mut self, sim: &mut Simulation<D>, dt: f64) -> Result<StepReport, StepError> {
-        step_at_current(sim, dt, Equation::Ppe)
+        projection_step(sim, dt, Equation::Ppe, PositionRule::Current)
     }
 }
 
@@ -215,7 +253,7 @@ impl<D: Dim> Integrator<D> for DgIsph {
         "dg"
     }
     fn step(&mut self, sim: &mut Simulation<D>, dt: f64) -> Result<StepReport, StepError> {
-        step_at_current(sim, dt, Equation::Dg)
+        projection_step(sim, dt, Equation::Dg, PositionRule::Current)
     }
 }
 
@@ -224,85 +262,6 @@ impl<D: Dim> Integrator<D> for PredictorCorrectorIsph {
         "predictor_corrector"
     }
     fn step(&mut self, sim: &mut Simulation<D>, dt: f64) -> Result<StepReport, StepError> {
-        let t0 = Instant::now();
-        let (step, t) = (sim.step, sim.t);
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(StepError::InvalidTimeStep { step, dt });
-        }
-        sim.ensure_buffers();
-        intermediate_velocity(sim);
-        let p = &mut sim.particles;
-        // Predictor: x' = xⁿ + Δt uⁿ.
-        for ((xp, x), u) in sim
-            .buf
-            .x_pred
-            .iter_mut()
-            .zip(&p.positions)
-            .zip(&p.velocities)
-        {
-            *xp = *x + *u * dt;
-        }
-        let correction_fallbacks = prepare(
-            &mut sim.engine,
-            &sim.buf.x_pred,
-            &p.masses,
-            &p.densities,
-            step,
-            t,
-        )?;
-        sim.buf.p_work.copy_from_slice(&p.pressures);
-        let projected = project(
-            &mut sim.engine,
-            &sim.buf.x_pred,
-            &p.densities,
-            &sim.buf.u_star,
-            &mut sim.buf.p_work,
-            dt,
-            Equation::Ppe,
-            &mut sim.buf.u_new,
-            step,
-            t,
-        )?;
-        if let Some(particle) = first_non_finite(&sim.buf.u_new) {
-            return Err(StepError::NonFinite {
-                step,
-                t,
-                field: "velocity",
-                particle,
-            });
-        }
-        // Corrector: xⁿ⁺¹ = xⁿ + Δt (uⁿ + uⁿ⁺¹)/2.
-        for ((d, u), un) in sim
-            .buf
-            .disp
-            .iter_mut()
-            .zip(&p.velocities)
-            .zip(&sim.buf.u_new)
-        {
-            *d = (*u + *un) * (0.5 * dt);
-        }
-        let det_f = if sim.engine.config.diagnostics {
-            // The step's deformation is measured from xⁿ: rebuild the lists there.
-            let flags = sim.engine.dirichlet.clone();
-            prepare(
-                &mut sim.engine,
-                &p.positions,
-                &p.masses,
-                &p.densities,
-                step,
-                t,
-            )?;
-            sim.engine.dirichlet.copy_from_slice(&flags);
-            Some(det_f_stats(
-                &sim.engine,
-                &p.positions,
-                &sim.buf.disp,
-                &mut sim.buf.det_f,
-            ))
-        } else {
-            None
-        };
-        commit(sim);
-        finish(sim, dt, projected, correction_fallbacks, det_f, t0)
+        projection_step(sim, dt, Equation::Ppe, PositionRule::Predicted)
     }
 }

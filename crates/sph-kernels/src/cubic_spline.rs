@@ -1,6 +1,4 @@
-use crate::kernel::{Kernel, inv_h_pow};
-use sph_core::Dim;
-use std::marker::PhantomData;
+use crate::radial::{Radial, Shape};
 
 /// Cubic (M4) spline kernel (Monaghan & Lattanzio 1985), support `2h`:
 ///
@@ -10,79 +8,35 @@ use std::marker::PhantomData;
 /// ```
 ///
 /// σ₂ = 10/(7π), σ₃ = 1/π.
+pub type CubicSpline<D> = Radial<D, Cubic>;
+
+/// Shape of [`CubicSpline`].
 #[derive(Clone, Copy, Debug)]
-pub struct CubicSpline<D: Dim> {
-    h: f64,
-    inv_h: f64,
-    support: f64,
-    norm: f64,
-    _dim: PhantomData<D>,
-}
+pub struct Cubic;
 
-impl<D: Dim> CubicSpline<D> {
-    /// Support radius in units of `h`.
-    pub const SUPPORT: f64 = 2.0;
-
-    /// Dimensionless normalisation σ_D.
-    pub fn sigma() -> f64 {
+impl Shape for Cubic {
+    const SUPPORT: f64 = 2.0;
+    fn sigma(dim: usize) -> f64 {
         use std::f64::consts::PI;
-        match D::DIM {
+        match dim {
             2 => 10.0 / (7.0 * PI),
             _ => 1.0 / PI,
         }
     }
-
-    /// A cubic spline with smoothing length `h > 0`.
-    pub fn new(h: f64) -> Self {
-        Self {
-            h,
-            inv_h: 1.0 / h,
-            support: Self::SUPPORT * h,
-            norm: Self::sigma() * inv_h_pow::<D>(h),
-            _dim: PhantomData,
-        }
-    }
-}
-
-impl<D: Dim> Kernel<D> for CubicSpline<D> {
     #[inline(always)]
-    fn h(&self) -> f64 {
-        self.h
-    }
-    #[inline(always)]
-    fn support_radius(&self) -> f64 {
-        self.support
-    }
-    #[inline(always)]
-    fn w(&self, r: f64) -> f64 {
-        if r >= self.support {
-            return 0.0;
-        }
-        let q = r * self.inv_h;
-        let f = if q < 1.0 {
+    fn f(q: f64) -> f64 {
+        if q < 1.0 {
             1.0 - 1.5 * q * q + 0.75 * q * q * q
-        } else if q < 2.0 {
-            let t = 2.0 - q;
-            0.25 * t * t * t
         } else {
-            0.0
-        };
-        self.norm * f
+            0.25 * (2.0 - q).powi(3)
+        }
     }
     #[inline(always)]
-    fn dw_dr(&self, r: f64) -> f64 {
-        if r >= self.support {
-            return 0.0;
-        }
-        let q = r * self.inv_h;
-        let df = if q < 1.0 {
+    fn df(q: f64) -> f64 {
+        if q < 1.0 {
             -3.0 * q + 2.25 * q * q
-        } else if q < 2.0 {
-            let t = 2.0 - q;
-            -0.75 * t * t
         } else {
-            0.0
-        };
-        self.norm * self.inv_h * df
+            -0.75 * (2.0 - q).powi(2)
+        }
     }
 }

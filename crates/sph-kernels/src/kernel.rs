@@ -24,9 +24,3 @@ pub trait Kernel<D: Dim>: Send + Sync + fmt::Debug + Clone {
         }
     }
 }
-
-/// `h^{-D}` for the kernel's dimension.
-#[inline(always)]
-pub(crate) fn inv_h_pow<D: Dim>(h: f64) -> f64 {
-    1.0 / h.powi(D::DIM as i32)
-}

@@ -13,19 +13,22 @@
 //! The tests in [`quintic_spline`] integrate the kernel numerically and fail with the printed value.
 //!
 //! Start with the [`Kernel`] trait; pick a kernel at run time with [`KernelKind`] and
-//! [`AnyKernel`]. Kernels hold their smoothing length and normalisation in `&self` and are cheap
+//! [`AnyKernel`]. Each kernel is a [`Radial`] kernel of a dimensionless [`Shape`] (support,
+//! normalisation, polynomial); adding a kernel means adding a `Shape`. Kernels hold their smoothing length and normalisation in `&self` and are cheap
 //! to copy.
 
 mod any_kernel;
 mod cubic_spline;
 mod kernel;
 mod quintic_spline;
+mod radial;
 #[cfg(test)]
 mod tests;
 mod wendland_c2;
 
 pub use any_kernel::{AnyKernel, KernelKind};
-pub use cubic_spline::CubicSpline;
+pub use cubic_spline::{Cubic, CubicSpline};
 pub use kernel::Kernel;
-pub use quintic_spline::QuinticSpline;
-pub use wendland_c2::WendlandC2;
+pub use quintic_spline::{Quintic, QuinticSpline};
+pub use radial::{Radial, Shape};
+pub use wendland_c2::{Wendland, WendlandC2};

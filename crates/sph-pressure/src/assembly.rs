@@ -43,15 +43,9 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
     let nl = ctx.neighbors;
     matrix.resize(nl.nnz());
     for_each_row_mut(nl.offsets(), &mut matrix.values, &|i, row| {
-        row.fill(0.0);
-        let cols = nl.row(i);
-        let diag = cols
-            .binary_search(&(i as u32))
-            .expect("neighbour rows contain the particle");
-        if dirichlet[i] {
-            row[diag] = 1.0;
+        let Some((cols, diag)) = begin_row(nl.row(i), i, dirichlet, row) else {
             return;
-        }
+        };
         let xi = ctx.positions[i];
         let mut sum = 0.0;
         for (k, &j) in cols.iter().enumerate() {
@@ -69,13 +63,7 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
         }
         row[diag] = sum;
     });
-    for i in 0..n {
-        rhs[i] = if dirichlet[i] {
-            0.0
-        } else {
-            -div_u_star[i] / dt
-        };
-    }
+    fill_rhs(rhs, dirichlet, |i| -div_u_star[i] / dt);
     check_finite(matrix, nl.offsets(), rhs)
 }
 
@@ -108,15 +96,9 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
     matrix.resize(nl.nnz());
     let fallbacks = std::sync::atomic::AtomicUsize::new(0);
     for_each_row_mut(nl.offsets(), &mut matrix.values, &|i, row| {
-        row.fill(0.0);
-        let cols = nl.row(i);
-        let diag = cols
-            .binary_search(&(i as u32))
-            .expect("neighbour rows contain the particle");
-        if dirichlet[i] {
-            row[diag] = 1.0;
+        let Some((cols, diag)) = begin_row(nl.row(i), i, dirichlet, row) else {
             return;
-        }
+        };
         let cof = a[i].cofactor();
         let inv_rho = 1.0 / densities[i];
         let mut sum = 0.0;
@@ -138,15 +120,36 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
         }
         row[diag] += sum;
     });
-    for i in 0..n {
-        rhs[i] = if dirichlet[i] {
-            0.0
-        } else {
-            -det_a_minus_one[i] / (dt * dt)
-        };
-    }
+    fill_rhs(rhs, dirichlet, |i| -det_a_minus_one[i] / (dt * dt));
     check_finite(matrix, nl.offsets(), rhs)?;
     Ok(fallbacks.into_inner())
+}
+
+/// Clears `row` and returns its columns and diagonal position, or writes the Dirichlet row
+/// `p_i = 0` and returns `None`.
+#[inline]
+fn begin_row<'a>(
+    cols: &'a [u32],
+    i: usize,
+    dirichlet: &[bool],
+    row: &mut [f64],
+) -> Option<(&'a [u32], usize)> {
+    row.fill(0.0);
+    let diag = cols
+        .binary_search(&(i as u32))
+        .expect("neighbour rows contain the particle");
+    if dirichlet[i] {
+        row[diag] = 1.0;
+        return None;
+    }
+    Some((cols, diag))
+}
+
+/// `rhs_i = value(i)`, or 0 on Dirichlet rows.
+fn fill_rhs(rhs: &mut [f64], dirichlet: &[bool], value: impl Fn(usize) -> f64) {
+    for (i, (r, d)) in rhs.iter_mut().zip(dirichlet).enumerate() {
+        *r = if *d { 0.0 } else { value(i) };
+    }
 }
 
 fn check_finite(matrix: &CsrMatrix, offsets: &[usize], rhs: &[f64]) -> Result<(), PressureError> {

@@ -117,7 +117,9 @@ impl AnySolver {
             SolverKind::BicgstabJacobi => {
                 AnySolver::BiCgStab(Box::new(BiCgStab::new(Preconditioner::Jacobi)))
             }
-            SolverKind::BicgstabIlu0 => AnySolver::BiCgStab(Box::new(BiCgStab::new(Preconditioner::Ilu0))),
+            SolverKind::BicgstabIlu0 => {
+                AnySolver::BiCgStab(Box::new(BiCgStab::new(Preconditioner::Ilu0)))
+            }
             SolverKind::SparseLu => AnySolver::SparseLu(SparseLu),
         }
     }

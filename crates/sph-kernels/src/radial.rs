@@ -1,0 +1,86 @@
+use crate::kernel::Kernel;
+use sph_core::Dim;
+use std::fmt;
+use std::marker::PhantomData;
+
+/// The dimensionless shape of a radial kernel: `W(r) = σ_D / h^D · f(r/h)` on `[0, SUPPORT·h)`.
+pub trait Shape: Copy + Send + Sync + fmt::Debug + 'static {
+    /// Support radius in units of `h`.
+    const SUPPORT: f64;
+    /// Normalisation `σ_D` for dimension `dim` (2 or 3), such that `∫ W dV = 1`.
+    fn sigma(dim: usize) -> f64;
+    /// `f(q)` for `0 ≤ q < SUPPORT`.
+    fn f(q: f64) -> f64;
+    /// `df/dq` for `0 ≤ q < SUPPORT`.
+    fn df(q: f64) -> f64;
+}
+
+/// A radial kernel of shape `S` in dimension `D`: holds `h`, `1/h`, the support `SUPPORT·h` and
+/// `σ_D/h^D`, and returns exact zeros beyond the support.
+#[derive(Clone, Copy)]
+pub struct Radial<D: Dim, S: Shape> {
+    h: f64,
+    inv_h: f64,
+    support: f64,
+    /// `σ_D / h^D`.
+    norm: f64,
+    _marker: PhantomData<(D, S)>,
+}
+
+impl<D: Dim, S: Shape> fmt::Debug for Radial<D, S> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let shape = std::any::type_name::<S>()
+            .rsplit("::")
+            .next()
+            .unwrap_or("?");
+        write!(f, "{shape}<{}>(h = {})", D::NAME, self.h)
+    }
+}
+
+impl<D: Dim, S: Shape> Radial<D, S> {
+    /// Support radius in units of `h`.
+    pub const SUPPORT: f64 = S::SUPPORT;
+
+    /// Dimensionless normalisation `σ_D`.
+    pub fn sigma() -> f64 {
+        S::sigma(D::DIM)
+    }
+
+    /// The kernel with smoothing length `h > 0`.
+    pub fn new(h: f64) -> Self {
+        Self {
+            h,
+            inv_h: 1.0 / h,
+            support: S::SUPPORT * h,
+            norm: S::sigma(D::DIM) / h.powi(D::DIM as i32),
+            _marker: PhantomData,
+        }
+    }
+}
+
+impl<D: Dim, S: Shape> Kernel<D> for Radial<D, S> {
+    #[inline(always)]
+    fn h(&self) -> f64 {
+        self.h
+    }
+    #[inline(always)]
+    fn support_radius(&self) -> f64 {
+        self.support
+    }
+    #[inline(always)]
+    fn w(&self, r: f64) -> f64 {
+        if r >= self.support {
+            0.0
+        } else {
+            self.norm * S::f(r * self.inv_h)
+        }
+    }
+    #[inline(always)]
+    fn dw_dr(&self, r: f64) -> f64 {
+        if r >= self.support {
+            0.0
+        } else {
+            self.norm * self.inv_h * S::df(r * self.inv_h)
+        }
+    }
+}
