@@ -18,6 +18,7 @@
 //! | [`hessian`] | Σ V_j ((d+2) x̂⊗x̂ − I)(f_i − f_j) F_ij | Eq. 25 (corrected) |
 //! | [`hessian_quadratic_fit`] | weighted least-squares gradient + Hessian, exact for quadratics | — |
 //! | [`free_surface_indicator`] | ∇·r = Σ V_j (x_j − x_i)·∇W_ij | Nair & Tomar 2014 |
+//! | [`viscous_acceleration`] | Σ m_j (μ_i+μ_j)/(ρ_iρ_j) F_ij (u_i − u_j) (Morris 1997) | Eq. 1 viscous term |
 //!
 //! with `F_ij = x_ij·∇W_ij / (r_ij² + (0.01h)²)` and `x_ij = x_i − x_j`. Optional kernel-gradient
 //! renormalisation ([`correction_matrices`], `∇̃W_ij = L_i ∇W_ij`) makes the gradient, divergence
@@ -71,6 +72,7 @@ mod laplacian;
 mod quadratic_fit;
 #[cfg(test)]
 mod test_support;
+mod viscosity;
 
 pub use context::{SphContext, laplacian_regulariser, pair_f};
 pub use correction::{CorrectionStats, correction_matrices};
@@ -82,6 +84,7 @@ pub use gradient::{GradientForm, gradient};
 pub use hessian::{HessianForm, hessian, hessian_stencil_eq25};
 pub use laplacian::laplacian;
 pub use quadratic_fit::{QuadraticFitStats, hessian_quadratic_fit, hessian_stencil_fit};
+pub use viscosity::viscous_acceleration;
 
 /// The dimension abstraction (re-export of `sph-core`).
 pub use sph_core as core;
