@@ -4,30 +4,17 @@
 //! PPE source ∇·u* is ≈ 0 there, so its solve chases a relative tolerance on a tiny vector).
 
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
+use dgsph_benches::drop_scene;
+use sph_cases::CaseKind;
 use sph_cases::drop::setup;
-use sph_cases::{CaseKind, DgHessianChoice, Scene};
 use sph_core::{D2, D3, Dim};
-use sph_integrators::{FreeSurface, Integrator, Scheme, SchemeKind, Simulation};
-use sph_kernels::KernelKind;
+use sph_integrators::{Integrator, Scheme, SchemeKind, Simulation};
 use std::hint::black_box;
 
 fn bench<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     let mut group = c.benchmark_group("integrators");
     group.sample_size(10);
-    let scene = Scene {
-        case,
-        dim: D::DIM,
-        dx,
-        h_over_dx: 1.3,
-        kernel: KernelKind::QuinticSpline,
-        dt: 2e-4,
-        t_end: 2e-4,
-        schemes: SchemeKind::ALL.to_vec(),
-        free_surface: Some(FreeSurface::default_for(D::DIM)),
-        solver: Default::default(),
-        dg_hessian: DgHessianChoice::Eq25,
-        quick: None,
-    };
+    let scene = drop_scene(case, dx);
     let s = setup::<D>(&scene);
     let n = s.particles.len();
     let mut config = s.config.clone();

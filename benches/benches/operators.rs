@@ -2,10 +2,9 @@
 //! matrices + divergence) and the Morris Laplacian, `operators/<op>/<dim>/<n>`.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use dgsph_benches::{H, RADIUS, particles};
+use dgsph_benches::{H, particles, self_join};
 use sph_core::{D2, D3, Dim, MatrixOps, VectorOps};
 use sph_kernels::QuinticSpline;
-use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
 use sph_operators::{SphContext, correction_matrices, divergence, laplacian};
 use std::hint::black_box;
 
@@ -14,10 +13,7 @@ fn bench_dim<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
     group.sample_size(10);
     for &n in sizes {
         let pts = particles::<D>(n);
-        let mut grid = CellGrid::<D>::new();
-        grid.build(&pts, RADIUS).unwrap();
-        let mut nl = NeighborList::new();
-        grid.query(&pts, &mut nl);
+        let nl = self_join::<D>(&pts);
         let kernel = QuinticSpline::<D>::new(H);
         let vols = vec![1.0; pts.len()];
         let ctx = SphContext::new(&pts, &vols, &nl, &kernel);

@@ -3,12 +3,11 @@
 //! (`pressure/solve_<solver>/<dim>/<n>`).
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use dgsph_benches::{H, RADIUS, particles};
+use dgsph_benches::{H, drop_scene, particles, self_join};
+use sph_cases::CaseKind;
 use sph_cases::drop::setup;
-use sph_cases::{CaseKind, DgHessianChoice, Scene};
 use sph_core::{D2, D3, Dim, MatrixOps, VectorOps};
-use sph_integrators::{FreeSurface, SchemeKind};
-use sph_kernels::{KernelKind, QuinticSpline};
+use sph_kernels::QuinticSpline;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
 use sph_operators::{SphContext, free_surface_indicator};
 use sph_pressure::{
@@ -22,10 +21,7 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
     group.sample_size(10);
     for &n in sizes {
         let pts = particles::<D>(n);
-        let mut grid = CellGrid::<D>::new();
-        grid.build(&pts, RADIUS).unwrap();
-        let mut nl = NeighborList::new();
-        grid.query(&pts, &mut nl);
+        let nl = self_join::<D>(&pts);
         let kernel = QuinticSpline::<D>::new(H);
         let n = pts.len();
         let ones = vec![1.0; n];
@@ -70,20 +66,7 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
 fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     let mut group = c.benchmark_group("pressure");
     group.sample_size(10);
-    let scene = Scene {
-        case,
-        dim: D::DIM,
-        dx,
-        h_over_dx: 1.3,
-        kernel: KernelKind::QuinticSpline,
-        dt: 2e-4,
-        t_end: 2e-4,
-        schemes: vec![SchemeKind::Dg],
-        free_surface: Some(FreeSurface::default_for(D::DIM)),
-        solver: SolverKind::BicgstabJacobi,
-        dg_hessian: DgHessianChoice::Eq25,
-        quick: None,
-    };
+    let scene = drop_scene(case, dx);
     let s = setup::<D>(&scene);
     let pts = &s.particles.positions;
     let n = pts.len();

@@ -5,29 +5,28 @@ use sph_core::testing::lattice;
 use sph_core::{Dim, MatrixOps, VectorOps};
 use std::f64::consts::PI;
 
+/// `(P_n(x), P_n'(x))` by the three-term recurrence.
+fn legendre(n: usize, x: f64) -> (f64, f64) {
+    let (mut p0, mut p1) = (1.0, x);
+    for k in 2..=n {
+        let pk = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+        p0 = p1;
+        p1 = pk;
+    }
+    (p1, n as f64 * (x * p1 - p0) / (x * x - 1.0))
+}
+
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton iteration on P_n).
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
     (0..n)
         .map(|i| {
             let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
             loop {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let pk = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                    p0 = p1;
-                    p1 = pk;
-                }
-                let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
+                let (p, dp) = legendre(n, x);
+                let dx = p / dp;
                 x -= dx;
                 if dx.abs() < 1e-15 {
-                    let (mut p0, mut p1) = (1.0, x);
-                    for k in 2..=n {
-                        let pk = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                        p0 = p1;
-                        p1 = pk;
-                    }
-                    let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+                    let (_, dp) = legendre(n, x);
                     return (x, 2.0 / ((1.0 - x * x) * dp * dp));
                 }
             }
