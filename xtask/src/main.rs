@@ -9,6 +9,7 @@
 //! xtask owns all file I/O and terminal output; the library crates do none.
 
 mod flags;
+mod mcap_sink;
 mod run;
 mod validate;
 

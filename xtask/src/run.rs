@@ -108,12 +108,33 @@ fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<Vec<Check>> {
         writeln!(w, "{DROP_HEADER}")?;
         let mut first: Option<DropRecord> = None;
         let t0 = std::time::Instant::now();
-        // Each row is flushed as it is produced: a failing step loses nothing already computed.
-        let records = drop::run::<D>(scene, scheme, &mut |r| {
+        let mcap_path = out.join(format!("{}-{}.mcap", case, scheme.name()));
+        let mut meta = std::collections::BTreeMap::new();
+        meta.insert("case".into(), case.to_string());
+        meta.insert("scheme".into(), scheme.name().to_string());
+        meta.insert("dim".into(), D::DIM.to_string());
+        meta.insert("scene".into(), serde_json::to_string(scene)?);
+        let mut sink = crate::mcap_sink::McapSink::create(&mcap_path, 1, meta)?;
+        // Each row is flushed as it is produced: a failing step loses nothing already computed,
+        // and the MCAP file is finished on every path (explicitly below, or on drop).
+        let records = drop::run::<D>(scene, scheme, &mut |r, frame| {
             let f = first.get_or_insert_with(|| r.clone());
-            writeln!(w, "{}", drop_row(r, f))?;
+            let row = drop_row(r, f);
+            let metrics: serde_json::Map<String, serde_json::Value> = DROP_HEADER
+                .split(',')
+                .zip(row.split(','))
+                .map(|(k, v)| {
+                    (
+                        k.to_string(),
+                        v.parse::<f64>().map_or_else(|_| v.into(), |x| x.into()),
+                    )
+                })
+                .collect();
+            sink.frame(frame, &serde_json::Value::Object(metrics));
+            writeln!(w, "{row}")?;
             w.flush()
         });
+        sink.finish()?;
         let records = match records {
             Ok(r) => r,
             Err(e) => {

@@ -9,7 +9,7 @@ use crate::measure::{hull_measure, second_moments};
 use crate::reference::{DropSolution, DropState};
 use crate::{CaseError, Check, Scene};
 use sph_core::{Dim, ParticleSet, VectorOps};
-use sph_integrators::{Integrator, Scheme, SchemeKind, SimConfig, Simulation, StepReport};
+use sph_integrators::{Frame, Integrator, Scheme, SchemeKind, SimConfig, Simulation, StepReport};
 
 /// One record of a drop run, taken at `t = 0` and after every step.
 #[derive(Clone, Debug, PartialEq)]
@@ -114,18 +114,19 @@ fn record<D: Dim>(
 }
 
 /// Runs one scheme on the drop of `scene` to `scene.t_end`, calling `observe` with every record
-/// as soon as it exists (so a writer loses nothing if a later step fails). Returns all records.
+/// and the particle state ([`Frame`]) as soon as they exist (so a writer loses nothing if a later
+/// step fails). Returns all records.
 pub fn run<D: Dim>(
     scene: &Scene,
     scheme: SchemeKind,
-    observe: &mut dyn FnMut(&DropRecord) -> std::io::Result<()>,
+    observe: &mut dyn FnMut(&DropRecord, &dyn Frame) -> std::io::Result<()>,
 ) -> Result<Vec<DropRecord>, CaseError> {
     let s = setup::<D>(scene);
     let mut sim = Simulation::new(s.particles, s.config)?;
     let mut integrator = Scheme::new(scheme);
     let mut records = Vec::new();
     let r0 = record(&sim, scheme, s.centre, &s.exact, false, None);
-    observe(&r0)?;
+    observe(&r0, &sim)?;
     records.push(r0);
     let full = (scene.t_end / scene.dt + 1e-9).floor() as usize;
     let rest = scene.t_end - full as f64 * scene.dt;
@@ -141,7 +142,7 @@ pub fn run<D: Dim>(
                 source,
             })?;
         let r = record(&sim, scheme, s.centre, &s.exact, short, Some(report));
-        observe(&r)?;
+        observe(&r, &sim)?;
         records.push(r);
     }
     Ok(records)

@@ -18,6 +18,7 @@
 
 mod config;
 mod error;
+mod frame;
 mod projection;
 mod report;
 mod schemes;
@@ -28,6 +29,7 @@ mod time_step;
 
 pub use config::{FreeSurface, SimConfig};
 pub use error::StepError;
+pub use frame::Frame;
 pub use report::{DetFStats, StepReport};
 pub use schemes::{DgIsph, EulerIsph, Integrator, PredictorCorrectorIsph, Scheme, SchemeKind};
 pub use simulation::Simulation;
