@@ -22,7 +22,7 @@ fn main() -> std::process::ExitCode {
         flags::Command::Run(args) => run::load_scene(&args.scene)
             .and_then(|scene| run::apply_overrides(scene, &args))
             .and_then(|scene| run::run_scene(&scene, args.preset, &args.out))
-            .map(|checks| validate::print_checks(&checks)),
+            .map(|result| validate::print_checks(&result.checks)),
     };
     match result {
         Ok(true) => std::process::ExitCode::SUCCESS,

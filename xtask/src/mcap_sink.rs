@@ -50,12 +50,16 @@ impl McapSink {
         metadata: BTreeMap<String, String>,
     ) -> anyhow::Result<Self> {
         let ctx = foxglove::Context::new();
+        // Truncate an existing file (re-runs overwrite, like the CSVs); foxglove's
+        // `create_new_buffered_file` refuses to, which broke a second `cargo xtask validate`.
+        let file =
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
         let writer = ctx
             .mcap_writer_with_options(
                 McapWriteOptions::new().compression(Some(McapCompression::Lz4)),
             )
-            .create_new_buffered_file(path)
-            .with_context(|| format!("creating {}", path.display()))?;
+            .create(BufWriter::new(file))
+            .with_context(|| format!("starting MCAP in {}", path.display()))?;
         writer.write_metadata("scene", metadata)?;
         let particles = ctx.channel_builder("/particles").build::<PointCloud>();
         let metrics = ctx
@@ -248,6 +252,21 @@ mod tests {
             .unwrap();
         // The protobuf payload holds every point: 10 f32 fields per particle plus the header.
         assert!(frame.data.len() > n_particles * FIELDS.len() * 4);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn an_existing_file_is_overwritten() {
+        // Regression: a second `cargo xtask validate` failed with "File exists".
+        let dir = std::env::temp_dir().join(format!("dgsph-mcap-overwrite-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("run.mcap");
+        for _ in 0..2 {
+            let mut sink = McapSink::create(&path, 1, BTreeMap::new()).unwrap();
+            sink.finish().unwrap();
+        }
+        let bytes = std::fs::read(&path).unwrap();
+        assert!(mcap::Summary::read(&bytes).unwrap().is_some());
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -43,9 +43,39 @@ pub fn apply_overrides(mut scene: Scene, args: &crate::flags::RunArgs) -> anyhow
     Ok(scene)
 }
 
+/// One scheme's run, for `summary.json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RunInfo {
+    /// Case name.
+    pub case: String,
+    /// Scheme (or position update) name.
+    pub scheme: String,
+    /// Kernel.
+    pub kernel: String,
+    /// Dimension.
+    pub dim: usize,
+    /// Number of particles.
+    pub particles: usize,
+    /// Number of steps (including a short last step).
+    pub steps: usize,
+    /// Wall time of the run in seconds.
+    pub wall_s: f64,
+    /// Mean pressure-solver iterations per step (0 for prescribed-field runs).
+    pub solver_iters_mean: f64,
+}
+
+/// Checks and runs of one scene.
+#[derive(Default)]
+pub struct SceneResult {
+    /// Pass/fail checks.
+    pub checks: Vec<Check>,
+    /// One entry per scheme run.
+    pub runs: Vec<RunInfo>,
+}
+
 /// Runs `scene` (with the preset applied), writing `<out>/<case>_<scheme>.csv` per scheme, and
 /// returns its checks.
-pub fn run_scene(scene: &Scene, preset: Preset, out: &Path) -> anyhow::Result<Vec<Check>> {
+pub fn run_scene(scene: &Scene, preset: Preset, out: &Path) -> anyhow::Result<SceneResult> {
     let scene = match preset {
         Preset::Quick => scene.quick(),
         Preset::Paper => scene.clone(),
@@ -95,10 +125,11 @@ fn drop_row(r: &DropRecord, first: &DropRecord) -> String {
     )
 }
 
-fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<Vec<Check>> {
+fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<SceneResult> {
     let case = scene.case.name();
     let mut checks = Vec::new();
     let mut runs = Vec::new();
+    let mut infos = Vec::new();
     let n_particles = drop::setup::<D>(scene).particles.len();
     for &scheme in &scene.schemes {
         let path = csv_path(out, scene, scheme.name());
@@ -183,17 +214,33 @@ fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<Vec<Check>> {
             t0.elapsed().as_secs_f64(),
         );
         checks.extend(drop::checks(case, D::DIM, scheme, &records));
+        infos.push(RunInfo {
+            case: case.to_string(),
+            scheme: scheme.name().to_string(),
+            kernel: format!("{:?}", scene.kernel),
+            dim: D::DIM,
+            particles: n_particles,
+            steps,
+            wall_s: t0.elapsed().as_secs_f64(),
+            solver_iters_mean: iters,
+        });
         runs.push((scheme, records));
     }
     let find = |k: SchemeKind| runs.iter().find(|(s, _)| *s == k).map(|(_, r)| r);
     if let (Some(e), Some(g)) = (find(SchemeKind::Euler), find(SchemeKind::Dg)) {
         checks.push(drop::euler_vs_dg_check(case, e, g));
     }
-    Ok(checks)
+    Ok(SceneResult {
+        checks,
+        runs: infos,
+    })
 }
 
-fn run_prescribed<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<Vec<Check>> {
+fn run_prescribed<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<SceneResult> {
+    let t0 = std::time::Instant::now();
     let (runs, checks) = prescribed::run_scene::<D>(scene);
+    let wall_s = t0.elapsed().as_secs_f64();
+    let mut infos = Vec::new();
     for run in &runs {
         let path = csv_path(out, scene, run.update.name());
         let mut w = std::io::BufWriter::new(
@@ -212,6 +259,19 @@ fn run_prescribed<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<Vec<Check
             run.slope_moments,
             run.exact_slope
         );
+        infos.push(RunInfo {
+            case: scene.case.name().to_string(),
+            scheme: run.update.name().to_string(),
+            kernel: "none".to_string(),
+            dim: D::DIM,
+            particles: run.particles,
+            steps: run.series.len() - 1,
+            wall_s: wall_s / runs.len() as f64,
+            solver_iters_mean: 0.0,
+        });
     }
-    Ok(checks)
+    Ok(SceneResult {
+        checks,
+        runs: infos,
+    })
 }

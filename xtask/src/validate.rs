@@ -8,14 +8,17 @@ use std::time::Instant;
 /// Runs the selected cases; returns `Ok(true)` if every check passed.
 pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     let t0 = Instant::now();
-    let mut checks: Vec<Check> = Vec::new();
+    let mut checks: Vec<(Check, f64)> = Vec::new();
+    let mut runs = Vec::new();
     let wants = |name: &str| args.case.as_deref().is_none_or(|c| name.contains(c));
     if wants("kernels") || wants("operators") || wants("foundation") {
-        checks.extend(
-            sph_cases::foundation::checks()
-                .into_iter()
-                .filter(|c| wants(&c.case) || wants("foundation")),
-        );
+        let t = Instant::now();
+        let found: Vec<Check> = sph_cases::foundation::checks()
+            .into_iter()
+            .filter(|c| wants(&c.case) || wants("foundation"))
+            .collect();
+        let wall = t.elapsed().as_secs_f64();
+        checks.extend(found.into_iter().map(|c| (c, wall)));
     }
     let mut scenes: Vec<_> = std::fs::read_dir(&args.cases)
         .with_context(|| format!("reading scene directory {}", args.cases.display()))?
@@ -30,13 +33,17 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
         }
         println!("{} ({:?} preset)", path.display(), args.preset);
         let t = Instant::now();
-        checks.extend(crate::run::run_scene(&scene, args.preset, &args.out)?);
-        println!("  [{:.1} s]", t.elapsed().as_secs_f64());
+        let result = crate::run::run_scene(&scene, args.preset, &args.out)?;
+        let wall = t.elapsed().as_secs_f64();
+        checks.extend(result.checks.into_iter().map(|c| (c, wall)));
+        runs.extend(result.runs);
+        println!("  [{wall:.1} s]");
     }
     if checks.is_empty() {
         anyhow::bail!("no validation case matches {:?}", args.case);
     }
-    let passed = print_checks(&checks);
+    let plain: Vec<Check> = checks.iter().map(|(c, _)| c.clone()).collect();
+    let passed = print_checks(&plain);
     println!(
         "({:?} preset, {:.1} s)",
         args.preset,
@@ -45,18 +52,40 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating output directory {}", args.out.display()))?;
     let summary = args.out.join("summary.json");
+    // Field names are part of the interface (documented in the README); keep them stable.
     let json = serde_json::json!({
         "preset": format!("{:?}", args.preset).to_lowercase(),
+        "git": git_revision(),
         "passed": passed,
-        "checks": checks.iter().map(|c| serde_json::json!({
-            "case": c.case, "name": c.name, "value": c.value, "reference": c.reference,
-            "tolerance": c.tolerance, "source": c.source, "passed": c.passed(),
+        "checks": checks.iter().map(|(c, wall_s)| serde_json::json!({
+            "case": c.case, "check": c.name, "value": c.value, "reference": c.reference,
+            "tolerance": c.tolerance, "pass": c.passed(), "wall_s": wall_s, "source": c.source,
         })).collect::<Vec<_>>(),
+        "runs": runs,
     });
     std::fs::write(&summary, serde_json::to_string_pretty(&json)?)
         .with_context(|| format!("writing {}", summary.display()))?;
     println!("summary: {}", summary.display());
     Ok(passed)
+}
+
+/// `git rev-parse HEAD` (with `-dirty` if the tree has changes), or `"unknown"`.
+fn git_revision() -> String {
+    let run = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    match run(&["rev-parse", "HEAD"]) {
+        Some(rev) if run(&["status", "--porcelain"]).is_some_and(|s| !s.is_empty()) => {
+            format!("{rev}-dirty")
+        }
+        Some(rev) => rev,
+        None => "unknown".to_string(),
+    }
 }
 
 /// Prints the pass/fail table; returns true if every check passed.
