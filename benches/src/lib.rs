@@ -1,11 +1,9 @@
 //! Shared fixtures of the dgsph criterion benches: seeded, lattice-like particle sets of a given
 //! size with the paper's resolution ratio `h = 1.3 dx` and the quintic support `3h`.
 
-use sph_cases::{CaseKind, DgHessianChoice, Scene};
+use sph_cases::{CaseKind, Scene};
 use sph_core::testing::{SplitMix64, lattice};
 use sph_core::{Dim, VectorOps};
-use sph_integrators::{FreeSurface, SchemeKind};
-use sph_kernels::KernelKind;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
 
 /// A perturbed lattice of about `n` particles (spacing `dx = 1`, jitter ±10 %), seeded, in
@@ -53,18 +51,5 @@ pub fn self_join<D: Dim>(pts: &[D::Vector]) -> NeighborList {
 
 /// A one-step scene of the paper's drop (`case`) at spacing `dx`, Δt = 2e-4, default threshold.
 pub fn drop_scene(case: CaseKind, dx: f64) -> Scene {
-    Scene {
-        case,
-        dim: case.dim(),
-        dx,
-        h_over_dx: 1.3,
-        kernel: KernelKind::QuinticSpline,
-        dt: 2e-4,
-        t_end: 2e-4,
-        schemes: SchemeKind::ALL.to_vec(),
-        free_surface: Some(FreeSurface::default_for(case.dim())),
-        solver: Default::default(),
-        dg_hessian: DgHessianChoice::Eq25,
-        quick: None,
-    }
+    Scene::paper_drop(case, dx, 2e-4, 2e-4)
 }

@@ -162,10 +162,9 @@ fn point_cloud(frame: &dyn Frame, t_ns: u64) -> PointCloud {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sph_cases::{CaseKind, DgHessianChoice, Scene};
+    use sph_cases::{CaseKind, Scene};
     use sph_core::D2;
-    use sph_integrators::{FreeSurface, SchemeKind};
-    use sph_kernels::KernelKind;
+    use sph_integrators::SchemeKind;
 
     #[test]
     fn written_file_reads_back_with_schemas_channels_and_counts() {
@@ -173,20 +172,8 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("drop.mcap");
         let scene = Scene {
-            case: CaseKind::EllipticalDrop,
-            dim: 2,
-            dx: 0.1,
-            h_over_dx: 1.3,
-            kernel: KernelKind::QuinticSpline,
-            dt: 2e-4,
-            t_end: 6e-4,
             schemes: vec![SchemeKind::Dg],
-            free_surface: Some(FreeSurface {
-                div_r_threshold: 1.5,
-            }),
-            solver: Default::default(),
-            dg_hessian: DgHessianChoice::Eq25,
-            quick: None,
+            ..Scene::paper_drop(CaseKind::EllipticalDrop, 0.1, 2e-4, 6e-4)
         };
         let mut meta = BTreeMap::new();
         meta.insert("case".to_string(), "elliptical_drop".to_string());

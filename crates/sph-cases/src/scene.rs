@@ -132,6 +132,26 @@ fn default_kernel() -> KernelKind {
 }
 
 impl Scene {
+    /// The paper's drop setup (Section 5) for `case` at spacing `dx` and step `dt`, run to
+    /// `t_end`: quintic kernel, h = 1.3 dx, the default free-surface threshold of the dimension,
+    /// all three schemes, Eq. 25 Hessian, default solver. Callers change what they study.
+    pub fn paper_drop(case: CaseKind, dx: f64, dt: f64, t_end: f64) -> Self {
+        Scene {
+            case,
+            dim: case.dim(),
+            dx,
+            h_over_dx: default_h_over_dx(),
+            kernel: default_kernel(),
+            dt,
+            t_end,
+            schemes: SchemeKind::ALL.to_vec(),
+            free_surface: Some(FreeSurface::default_for(case.dim())),
+            solver: SolverKind::default(),
+            dg_hessian: DgHessianChoice::default(),
+            quick: None,
+        }
+    }
+
     /// Parses and validates a scene; `name` is used in error messages.
     pub fn parse(name: &str, text: &str) -> Result<Self, CaseError> {
         let scene: Scene = toml::from_str(text).map_err(|e| CaseError::Parse {

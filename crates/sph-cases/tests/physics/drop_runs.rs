@@ -1,28 +1,12 @@
 //! Multi-step runs of the 2D drop (dx = 0.025, quintic, h = 1.3 dx) to t = 0.003.
 
 use sph_cases::drop::{run, volume_change};
-use sph_cases::{CaseKind, DgHessianChoice, Scene};
+use sph_cases::{CaseKind, Scene};
 use sph_core::D2;
-use sph_integrators::{FreeSurface, SchemeKind};
-use sph_kernels::KernelKind;
+use sph_integrators::SchemeKind;
 
 fn scene(dt: f64) -> Scene {
-    Scene {
-        case: CaseKind::EllipticalDrop,
-        dim: 2,
-        dx: 0.025,
-        h_over_dx: 1.3,
-        kernel: KernelKind::QuinticSpline,
-        dt,
-        t_end: 0.003,
-        schemes: vec![],
-        free_surface: Some(FreeSurface {
-            div_r_threshold: 1.5,
-        }),
-        solver: Default::default(),
-        dg_hessian: DgHessianChoice::Eq25,
-        quick: None,
-    }
+    Scene::paper_drop(CaseKind::EllipticalDrop, 0.025, dt, 0.003)
 }
 
 fn dv(dt: f64, scheme: SchemeKind) -> f64 {

@@ -5,23 +5,12 @@
 use sph_cases::drop::{mean_local_volume_change, setup};
 use sph_cases::{CaseKind, DgHessianChoice, Scene};
 use sph_core::{D2, D3, Dim};
-use sph_integrators::{FreeSurface, Integrator, Scheme, SchemeKind, Simulation};
-use sph_kernels::KernelKind;
+use sph_integrators::{Integrator, Scheme, SchemeKind, Simulation};
 
 fn scene(case: CaseKind, dx: f64, dt: f64, hessian: DgHessianChoice) -> Scene {
     Scene {
-        case,
-        dim: case.dim(),
-        dx,
-        h_over_dx: 1.3,
-        kernel: KernelKind::QuinticSpline,
-        dt,
-        t_end: dt,
-        schemes: SchemeKind::ALL.to_vec(),
-        free_surface: Some(FreeSurface::default_for(case.dim())),
-        solver: Default::default(),
         dg_hessian: hessian,
-        quick: None,
+        ..Scene::paper_drop(case, dx, dt, dt)
     }
 }
 
