@@ -58,9 +58,10 @@ pub(crate) fn prepare<D: Dim>(
     } else {
         0
     };
-    free_surface_indicator(&ctx, &mut e.div_r);
+    // The ∇·r pass runs only when the scene declares a free surface.
     match e.config.free_surface {
         Some(fs) => {
+            free_surface_indicator(&ctx, &mut e.div_r);
             for (d, r) in e.dirichlet.iter_mut().zip(&e.div_r) {
                 *d = *r < fs.div_r_threshold;
             }

@@ -112,7 +112,8 @@ impl<D: Dim> Simulation<D> {
         &self.engine.dirichlet
     }
 
-    /// `∇·r` of the last projection, one per particle (empty before the first step).
+    /// `∇·r` of the last projection, one per particle (empty before the first step; zeros when
+    /// the configuration has no free surface, since the pass is then skipped).
     pub fn div_r(&self) -> &[f64] {
         &self.engine.div_r
     }
