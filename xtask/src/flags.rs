@@ -47,6 +47,21 @@ pub struct RunArgs {
     /// Override the DG Hessian (`eq25` or `quadratic_fit`).
     #[arg(long)]
     pub dg_hessian: Option<String>,
+    /// Override the cavity's Reynolds number.
+    #[arg(long)]
+    pub re: Option<f64>,
+    /// Override the kernel (`quintic_spline`, `wendland_c2`, `cubic_spline`).
+    #[arg(long)]
+    pub kernel: Option<String>,
+    /// Override the schemes (comma-separated: `euler,predictor_corrector,dg`).
+    #[arg(long)]
+    pub schemes: Option<String>,
+    /// Declare particle shifting with this coefficient A (Lind et al. 2012).
+    #[arg(long)]
+    pub shifting: Option<f64>,
+    /// Output file prefix (default: the scene file's stem).
+    #[arg(long)]
+    pub tag: Option<String>,
 }
 
 /// How much to run.

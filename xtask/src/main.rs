@@ -21,7 +21,13 @@ fn main() -> std::process::ExitCode {
         flags::Command::Validate(args) => validate::run(&args),
         flags::Command::Run(args) => run::load_scene(&args.scene)
             .and_then(|scene| run::apply_overrides(scene, &args))
-            .and_then(|scene| run::run_scene(&scene, args.preset, &args.out))
+            .and_then(|scene| {
+                let name = args
+                    .tag
+                    .clone()
+                    .unwrap_or_else(|| run::scene_stem(&args.scene));
+                run::run_scene(&scene, &name, args.preset, &args.out)
+            })
             .map(|result| validate::print_checks(&result.checks)),
     };
     match result {

@@ -2,6 +2,7 @@
 
 use crate::flags::Preset;
 use anyhow::Context;
+use sph_cases::cavity;
 use sph_cases::drop::{self, DropRecord};
 use sph_cases::{CaseKind, Check, Scene, prescribed};
 use sph_core::{D2, D3, Dim};
@@ -14,6 +15,12 @@ pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("reading scene {}", path.display()))?;
     Ok(Scene::parse(&path.display().to_string(), &text)?)
+}
+
+/// The file stem of a scene path (output-file prefix).
+pub fn scene_stem(path: &Path) -> String {
+    path.file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
 }
 
 /// Applies the command-line overrides of `cargo xtask run` and re-validates the scene.
@@ -31,6 +38,28 @@ pub fn apply_overrides(mut scene: Scene, args: &crate::flags::RunArgs) -> anyhow
         scene.free_surface = Some(sph_integrators::FreeSurface {
             div_r_threshold: th,
         });
+    }
+    if let Some(re) = args.re {
+        match scene.cavity.as_mut() {
+            Some(c) => c.reynolds = re,
+            None => anyhow::bail!("--re applies to lid_driven_cavity scenes only"),
+        }
+    }
+    if let Some(k) = &args.kernel {
+        scene.kernel = serde_json::from_value(serde_json::Value::String(k.clone()))
+            .with_context(|| format!("--kernel {k:?}"))?;
+    }
+    if let Some(list) = &args.schemes {
+        scene.schemes = list
+            .split(',')
+            .map(|s| {
+                serde_json::from_value(serde_json::Value::String(s.trim().to_string()))
+                    .with_context(|| format!("--schemes: unknown scheme {s:?}"))
+            })
+            .collect::<anyhow::Result<_>>()?;
+    }
+    if let Some(a) = args.shifting {
+        scene.effects.shifting = Some(sph_cases::ShiftingSpec { coefficient: a });
     }
     if let Some(h) = &args.dg_hessian {
         scene.dg_hessian = match h.as_str() {
@@ -75,7 +104,12 @@ pub struct SceneResult {
 
 /// Runs `scene` (with the preset applied), writing `<out>/<case>_<scheme>.csv` per scheme, and
 /// returns its checks.
-pub fn run_scene(scene: &Scene, preset: Preset, out: &Path) -> anyhow::Result<SceneResult> {
+pub fn run_scene(
+    scene: &Scene,
+    name: &str,
+    preset: Preset,
+    out: &Path,
+) -> anyhow::Result<SceneResult> {
     let scene = match preset {
         Preset::Quick => scene.quick(),
         Preset::Paper => scene.clone(),
@@ -86,7 +120,163 @@ pub fn run_scene(scene: &Scene, preset: Preset, out: &Path) -> anyhow::Result<Sc
         CaseKind::SpheroidDrop => run_drop::<D3>(&scene, out),
         CaseKind::PrescribedEllipse => run_prescribed::<D2>(&scene, out),
         CaseKind::PrescribedEllipsoid => run_prescribed::<D3>(&scene, out),
+        CaseKind::LidDrivenCavity if scene.dim == 2 => run_cavity::<D2>(&scene, name, out),
+        CaseKind::LidDrivenCavity => run_cavity::<D3>(&scene, name, out),
     }
+}
+
+const CAVITY_HEADER: &str = "scheme,step,t,kinetic_energy,density_error_rms,density_change_rms,density_error_max,mean_pressure,pressure_range,wall_penetrations,solver_iterations,max_div_u,gauge_multiplier,det_f_min,det_f_mean,det_f_max,step_seconds";
+
+fn cavity_row(r: &cavity::CavityRecord) -> String {
+    let det = r.det_f.unwrap_or_default();
+    format!(
+        "{},{},{:.9e},{:.9e},{:.6e},{:.6e},{:.6e},{:.3e},{:.6e},{},{},{:.3e},{:.3e},{:.9e},{:.9e},{:.9e},{:.4e}",
+        r.scheme.name(),
+        r.step,
+        r.t,
+        r.kinetic_energy,
+        r.density_error_rms,
+        r.density_change_rms,
+        r.density_error_max,
+        r.mean_pressure,
+        r.pressure_range,
+        r.wall_penetrations,
+        r.solver_iterations,
+        r.max_div_u,
+        r.gauge_multiplier,
+        det.min,
+        det.mean,
+        det.max,
+        r.step_seconds,
+    )
+}
+
+fn write_file(path: &Path, text: &str) -> anyhow::Result<()> {
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+fn run_cavity<D: Dim>(scene: &Scene, name: &str, out: &Path) -> anyhow::Result<SceneResult> {
+    let case = scene.case.name();
+    let mut result = SceneResult::default();
+    for &scheme in &scene.schemes {
+        let stem = format!("{name}_{}", scheme.name());
+        let path = out.join(format!("{stem}.csv"));
+        let file =
+            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+        let mut w = std::io::BufWriter::new(file);
+        writeln!(w, "{CAVITY_HEADER}")?;
+        let mut meta = std::collections::BTreeMap::new();
+        meta.insert("case".into(), case.to_string());
+        meta.insert("scheme".into(), scheme.name().to_string());
+        meta.insert("dim".into(), D::DIM.to_string());
+        meta.insert("scene".into(), serde_json::to_string(scene)?);
+        // About 40 particle frames per run; metrics at every record.
+        let mcap_path = out.join(format!("{stem}.mcap"));
+        let mut sink = crate::mcap_sink::McapSink::create(&mcap_path, 10, meta)?;
+        let t0 = std::time::Instant::now();
+        let outcome = cavity::run::<D>(scene, scheme, &mut |r, frame| {
+            let row = cavity_row(r);
+            let metrics: serde_json::Map<String, serde_json::Value> = CAVITY_HEADER
+                .split(',')
+                .zip(row.split(','))
+                .map(|(k, v)| {
+                    (
+                        k.to_string(),
+                        v.parse::<f64>().map_or_else(|_| v.into(), |x| x.into()),
+                    )
+                })
+                .collect();
+            sink.frame(frame, &serde_json::Value::Object(metrics));
+            writeln!(w, "{row}")?;
+            w.flush()
+        });
+        sink.finish()?;
+        let wall_s = t0.elapsed().as_secs_f64();
+        let run = match outcome {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!(
+                    "  {name} {}: FAILED: {e} (rows so far in {})",
+                    scheme.name(),
+                    path.display()
+                );
+                result.checks.push(Check::new(
+                    case,
+                    format!("{name} {} run completes", scheme.name()),
+                    0.0,
+                    1.0,
+                    0.0,
+                    e.to_string(),
+                ));
+                continue;
+            }
+        };
+        let mut prof = String::from("profile,coord,value,ghia\n");
+        for (c, v, g) in &run.profiles.u_vertical {
+            prof += &format!("u_vertical,{c},{v:.6e},{g}\n");
+        }
+        for (c, v, g) in &run.profiles.v_horizontal {
+            prof += &format!("v_horizontal,{c},{v:.6e},{g}\n");
+        }
+        write_file(&out.join(format!("{stem}_profiles.csv")), &prof)?;
+        for snap in &run.snapshots {
+            let mut text = String::from("x,y,z,density_error\n");
+            for (x, e) in snap.probes.iter().zip(&snap.error) {
+                text += &format!("{},{},{},{e:.6e}\n", x[0], x[1], x[2]);
+            }
+            write_file(
+                &out.join(format!("{stem}_density_t{:.3}.csv", snap.t)),
+                &text,
+            )?;
+        }
+        let last = run.records.last().expect("initial record");
+        let steps = last.step;
+        let stepped: Vec<_> = run.records.iter().filter(|r| r.step > 0).collect();
+        let iters = stepped
+            .iter()
+            .map(|r| r.solver_iterations as f64)
+            .sum::<f64>()
+            / stepped.len().max(1) as f64;
+        let per_step = wall_s / steps.max(1) as f64;
+        let n = run.particles.0 + run.particles.1;
+        let ghia = run.ghia.map_or("—".to_string(), |g| {
+            format!(
+                "Ghia u rms {:.4} max {:.4} v rms {:.4} max {:.4}",
+                g.u_rms, g.u_max, g.v_rms, g.v_max
+            )
+        });
+        println!(
+            "  {name} {:<19} fluid={} walls={} steps={steps} t={:.3} KE {:.4e} ρ̂ rms {:.3e} (Δ {:.3e}) pen {} steady {}  {ghia}  iters/step {iters:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{wall_s:.1} s]",
+            scheme.name(),
+            run.particles.0,
+            run.particles.1,
+            last.t,
+            last.kinetic_energy,
+            last.density_error_rms,
+            last.density_change_rms,
+            last.wall_penetrations,
+            run.steady_time.map_or("no".into(), |t| format!("t={t:.2}")),
+            per_step,
+            n as f64 / per_step,
+        );
+        result.checks.extend(cavity::checks(
+            &format!("{case}/{name}"),
+            scene,
+            scheme,
+            &run,
+        ));
+        result.runs.push(RunInfo {
+            case: name.to_string(),
+            scheme: scheme.name().to_string(),
+            kernel: format!("{:?}", scene.kernel),
+            dim: D::DIM,
+            particles: n,
+            steps,
+            wall_s,
+            solver_iters_mean: iters,
+        });
+    }
+    Ok(result)
 }
 
 fn csv_path(out: &Path, scene: &Scene, scheme: &str) -> PathBuf {

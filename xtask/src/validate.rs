@@ -33,7 +33,8 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
         }
         println!("{} ({:?} preset)", path.display(), args.preset);
         let t = Instant::now();
-        let result = crate::run::run_scene(&scene, args.preset, &args.out)?;
+        let name = crate::run::scene_stem(&path);
+        let result = crate::run::run_scene(&scene, &name, args.preset, &args.out)?;
         let wall = t.elapsed().as_secs_f64();
         checks.extend(result.checks.into_iter().map(|c| (c, wall)));
         runs.extend(result.runs);

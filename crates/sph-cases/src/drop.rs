@@ -71,11 +71,8 @@ pub fn setup<D: Dim>(scene: &Scene) -> DropSetup<D> {
         .iter()
         .position(|x| x.length() < 1e-12)
         .expect("lattice contains the origin");
-    let mut config = SimConfig::new(scene.kernel, scene.h_over_dx * scene.dx);
+    let mut config = scene.sim_config();
     config.rho0 = rho0;
-    config.free_surface = scene.free_surface;
-    config.solver = scene.solver;
-    config.dg_hessian = scene.dg_hessian.into();
     let exact = if D::DIM == 2 {
         DropSolution::elliptical_2d()
     } else {

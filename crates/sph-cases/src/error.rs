@@ -26,6 +26,9 @@ pub enum CaseError {
     /// The initial particle set is invalid.
     #[error("case setup: {0}")]
     Setup(#[from] CoreError),
+    /// The walls of a case are inconsistent.
+    #[error("case walls: {0}")]
+    Walls(String),
     /// A time step failed.
     #[error("{scheme}: {source}")]
     Step {

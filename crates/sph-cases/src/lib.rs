@@ -14,6 +14,7 @@
 //!
 //! Start with [`Scene::parse`] and [`drop::run`].
 
+pub mod cavity;
 mod check;
 pub mod drop;
 mod error;
@@ -26,4 +27,6 @@ mod scene;
 
 pub use check::Check;
 pub use error::CaseError;
-pub use scene::{CaseKind, DgHessianChoice, QuickOverrides, Scene};
+pub use scene::{
+    CaseKind, CavitySpec, DgHessianChoice, EffectsSpec, QuickOverrides, Scene, ShiftingSpec,
+};

@@ -19,7 +19,7 @@
 
 use crate::CaseError;
 use serde::{Deserialize, Serialize};
-use sph_integrators::{FreeSurface, SchemeKind};
+use sph_integrators::{Effects, FreeSurface, SchemeKind, Shifting, SimConfig, Viscosity};
 use sph_kernels::KernelKind;
 use sph_operators::HessianForm;
 use sph_pressure::SolverKind;
@@ -36,6 +36,9 @@ pub enum CaseKind {
     PrescribedEllipse,
     /// 3D particles advected by a prescribed linear field (Section 3, Eq. 15).
     PrescribedEllipsoid,
+    /// Lid-driven cavity (Section 6): unit square (2D) or cube (3D), walls of dummy particles,
+    /// lid `y = 1` moving in `+x`.
+    LidDrivenCavity,
 }
 
 impl CaseKind {
@@ -46,16 +49,73 @@ impl CaseKind {
             CaseKind::SpheroidDrop => "spheroid_drop",
             CaseKind::PrescribedEllipse => "prescribed_ellipse",
             CaseKind::PrescribedEllipsoid => "prescribed_ellipsoid",
+            CaseKind::LidDrivenCavity => "lid_driven_cavity",
         }
     }
 
-    /// The dimension the case is defined in.
+    /// The dimension the case is defined in (the cavity's default: 2).
     pub fn dim(self) -> usize {
         match self {
             CaseKind::EllipticalDrop | CaseKind::PrescribedEllipse => 2,
             CaseKind::SpheroidDrop | CaseKind::PrescribedEllipsoid => 3,
+            CaseKind::LidDrivenCavity => 2,
         }
     }
+
+    /// Whether the case can run in `dim` dimensions.
+    pub fn supports_dim(self, dim: usize) -> bool {
+        match self {
+            CaseKind::LidDrivenCavity => dim == 2 || dim == 3,
+            _ => dim == self.dim(),
+        }
+    }
+}
+
+/// Parameters of the lid-driven cavity (`[cavity]` in a scene).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CavitySpec {
+    /// Reynolds number `U L / ν` (L = 1); sets the viscosity.
+    pub reynolds: f64,
+    /// Lid speed `U`. Default 1.
+    #[serde(default = "one")]
+    pub lid_speed: f64,
+    /// Layers of wall particles. Default: enough to fill the kernel support.
+    pub wall_layers: Option<usize>,
+    /// Spacing of the uniform probe array of the density error (Eq. 31). Default `dx`.
+    pub probe_spacing: Option<f64>,
+    /// Times at which the density-error field is written. Default none.
+    #[serde(default)]
+    pub snapshots: Vec<f64>,
+    /// Steps between time-series records. Default: about 400 records per run.
+    pub sample_every: Option<usize>,
+    /// Ghia comparison tolerances `[rms, max]` of the centreline velocities. Default
+    /// `[0.02, 0.05]`.
+    pub ghia_tolerance: Option<[f64; 2]>,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// Particle shifting as declared in a scene (the spacing is the scene's `dx`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShiftingSpec {
+    /// Lind et al.'s `A` (they use 2).
+    pub coefficient: f64,
+}
+
+/// Explicit effects a scene declares (`[effects]`). Absent ones are not computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EffectsSpec {
+    /// Laminar viscosity `{ nu = ... }` (the cavity derives it from `reynolds` instead).
+    pub viscosity: Option<Viscosity>,
+    /// Body-force acceleration `[gx, gy, gz]`.
+    pub gravity: Option<[f64; 3]>,
+    /// Particle shifting `{ coefficient = 2.0 }`.
+    pub shifting: Option<ShiftingSpec>,
 }
 
 /// DG Hessian choice in a scene (`"eq25"` or `"quadratic_fit"`).
@@ -86,6 +146,8 @@ pub struct QuickOverrides {
     pub dx: Option<f64>,
     /// Shorter run.
     pub t_end: Option<f64>,
+    /// Another time step (with a coarser `dx`).
+    pub dt: Option<f64>,
 }
 
 /// A scene file.
@@ -119,6 +181,11 @@ pub struct Scene {
     /// Hessian of the DG equation. Default `eq25`.
     #[serde(default)]
     pub dg_hessian: DgHessianChoice,
+    /// Lid-driven cavity parameters (required by, and only allowed for, `lid_driven_cavity`).
+    pub cavity: Option<CavitySpec>,
+    /// Explicit effects. Default: none.
+    #[serde(default)]
+    pub effects: EffectsSpec,
     /// Quick-preset overrides.
     pub quick: Option<QuickOverrides>,
 }
@@ -148,8 +215,28 @@ impl Scene {
             free_surface: Some(FreeSurface::default_for(case.dim())),
             solver: SolverKind::default(),
             dg_hessian: DgHessianChoice::default(),
+            cavity: None,
+            effects: EffectsSpec::default(),
             quick: None,
         }
+    }
+
+    /// The numerical configuration of the scene (kernel, h, free surface, solver, DG Hessian,
+    /// declared effects). Cases add what they derive (e.g. the cavity's viscosity).
+    pub fn sim_config(&self) -> SimConfig {
+        let mut config = SimConfig::new(self.kernel, self.h_over_dx * self.dx);
+        config.free_surface = self.free_surface;
+        config.solver = self.solver;
+        config.dg_hessian = self.dg_hessian.into();
+        config.effects = Effects {
+            viscosity: self.effects.viscosity,
+            gravity: self.effects.gravity,
+            shifting: self.effects.shifting.map(|s| Shifting {
+                coefficient: s.coefficient,
+                spacing: self.dx,
+            }),
+        };
+        config
     }
 
     /// Parses and validates a scene; `name` is used in error messages.
@@ -172,6 +259,9 @@ impl Scene {
             if let Some(t) = q.t_end {
                 s.t_end = t;
             }
+            if let Some(dt) = q.dt {
+                s.dt = dt;
+            }
         }
         s
     }
@@ -186,7 +276,7 @@ impl Scene {
             })
         };
         let positive = |x: f64| x.is_finite() && x > 0.0;
-        if self.dim != self.case.dim() {
+        if !self.case.supports_dim(self.dim) {
             return bad(
                 "dim",
                 format!(
@@ -240,9 +330,96 @@ impl Scene {
                 );
             }
         }
+        let cavity = self.case == CaseKind::LidDrivenCavity;
+        match (&self.cavity, cavity) {
+            (None, true) => {
+                return bad("cavity", "section is required by lid_driven_cavity".into());
+            }
+            (Some(_), false) => {
+                return bad(
+                    "cavity",
+                    format!(
+                        "section is only valid for lid_driven_cavity, not {}",
+                        self.case.name()
+                    ),
+                );
+            }
+            (Some(c), true) => {
+                if !positive(c.reynolds) {
+                    return bad(
+                        "cavity.reynolds",
+                        format!("must be positive, got {}", c.reynolds),
+                    );
+                }
+                if !c.lid_speed.is_finite() || c.lid_speed == 0.0 {
+                    return bad(
+                        "cavity.lid_speed",
+                        format!("must be finite and non-zero, got {}", c.lid_speed),
+                    );
+                }
+                if c.wall_layers.is_some_and(|l| !(1..=10).contains(&l)) {
+                    return bad("cavity.wall_layers", "must be in 1..=10".into());
+                }
+                if c.probe_spacing.is_some_and(|v| !positive(v) || v > 0.5) {
+                    return bad("cavity.probe_spacing", "must be in (0, 0.5]".into());
+                }
+                if c.snapshots.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
+                    return bad("cavity.snapshots", "must be non-negative times".into());
+                }
+                if c.sample_every == Some(0) {
+                    return bad("cavity.sample_every", "must be at least 1".into());
+                }
+                if c.ghia_tolerance
+                    .is_some_and(|[a, b]| !(positive(a) && positive(b)))
+                {
+                    return bad(
+                        "cavity.ghia_tolerance",
+                        "must be two positive numbers".into(),
+                    );
+                }
+                let cells = 1.0 / self.dx;
+                if (cells - cells.round()).abs() > 1e-6 * cells {
+                    return bad(
+                        "dx",
+                        format!(
+                            "must divide the unit cavity, got {} (1/dx = {cells})",
+                            self.dx
+                        ),
+                    );
+                }
+                if self.free_surface.is_some() {
+                    return bad("free_surface", "a closed cavity has no free surface".into());
+                }
+                if self.effects.viscosity.is_some() {
+                    return bad(
+                        "effects.viscosity",
+                        "is set by cavity.reynolds in a cavity".into(),
+                    );
+                }
+            }
+            (None, false) => {}
+        }
+        if let Some(v) = self.effects.viscosity
+            && !(v.nu.is_finite() && v.nu >= 0.0)
+        {
+            return bad("effects.viscosity.nu", format!("must be ≥ 0, got {}", v.nu));
+        }
+        if let Some(g) = self.effects.gravity
+            && g.iter().any(|v| !v.is_finite())
+        {
+            return bad("effects.gravity", "must be finite".into());
+        }
+        if let Some(sh) = self.effects.shifting
+            && !positive(sh.coefficient)
+        {
+            return bad("effects.shifting.coefficient", "must be positive".into());
+        }
         if let Some(q) = &self.quick {
             if q.dx.is_some_and(|v| !positive(v)) {
                 return bad("quick.dx", "must be a positive number".into());
+            }
+            if q.dt.is_some_and(|v| !positive(v)) {
+                return bad("quick.dt", "must be a positive number".into());
             }
             if q.t_end.is_some_and(|v| !positive(v)) {
                 return bad("quick.t_end", "must be a positive number".into());

@@ -25,6 +25,43 @@ impl FreeSurface {
     }
 }
 
+/// Laminar viscosity (Morris et al. 1997): `u* += Δt ν ∇²uⁿ`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Viscosity {
+    /// Kinematic viscosity `ν`.
+    pub nu: f64,
+}
+
+/// Fickian particle shifting after Lind et al. (2012), J. Comput. Phys. 231, 1499, Eqs. (7)–(9):
+///
+/// ```text
+/// δr_i = −D ∇C_i,   D = A h |u_i| Δt,
+/// ∇C_i = Σ_j V_j (1 + R (W_ij / W(Δp))⁴) ∇W_ij,   R = 0.2,  Δp = h / h_over_dx
+/// ```
+///
+/// followed by the Taylor correction `u_i += (δr_i·∇) u_i`. Off unless a scene declares it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Shifting {
+    /// `A` (Lind et al. use 2; larger shifts more).
+    pub coefficient: f64,
+    /// Initial particle spacing `Δp` used in the anti-clumping term.
+    pub spacing: f64,
+}
+
+/// Explicit terms of the momentum equation and particle regularisation. Each is computed only
+/// when present: a flow that declares none runs no loop for them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Effects {
+    /// Laminar viscosity.
+    pub viscosity: Option<Viscosity>,
+    /// Body-force acceleration (`x, y, z`; the `z` entry is ignored in 2D).
+    pub gravity: Option<[f64; 3]>,
+    /// Particle shifting.
+    pub shifting: Option<Shifting>,
+}
+
 /// Numerical configuration of a simulation, shared by all schemes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SimConfig {
@@ -52,6 +89,8 @@ pub struct SimConfig {
     /// Compute the det F diagnostics of every step (one extra operator pass; for the
     /// predictor–corrector also one extra neighbour search). Default `true`.
     pub diagnostics: bool,
+    /// Explicit forces and shifting. Default: none.
+    pub effects: Effects,
 }
 
 impl SimConfig {
@@ -69,6 +108,7 @@ impl SimConfig {
             solve: SolveParams::default(),
             search: SearchKind::CellGrid,
             diagnostics: true,
+            effects: Effects::default(),
         }
     }
 }

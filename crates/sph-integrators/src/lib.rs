@@ -26,11 +26,13 @@ mod simulation;
 #[cfg(test)]
 mod tests;
 mod time_step;
+mod walls;
 
-pub use config::{FreeSurface, SimConfig};
+pub use config::{Effects, FreeSurface, Shifting, SimConfig, Viscosity};
 pub use error::StepError;
 pub use frame::Frame;
 pub use report::{DetFStats, StepReport};
 pub use schemes::{DgIsph, EulerIsph, Integrator, PredictorCorrectorIsph, Scheme, SchemeKind};
 pub use simulation::Simulation;
 pub use time_step::TimeStep;
+pub use walls::{WallError, WallModel, Walls};

@@ -13,7 +13,9 @@ use sph_operators::{
     SphContext, correction_matrices, deformation_gradient, divergence, free_surface_indicator,
     gradient, invariants, velocity_gradient,
 };
-use sph_pressure::{CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe};
+use sph_pressure::{
+    CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_wall_rows,
+};
 
 /// Which pressure equation to solve.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,6 +32,7 @@ pub(crate) struct Projected {
     pub(crate) max_div_u: f64,
     pub(crate) free_surface: usize,
     pub(crate) hessian_fallbacks: usize,
+    pub(crate) gauge_multiplier: f64,
 }
 
 /// Smallest |det B| accepted for a renormalisation matrix before falling back to `L = I`
@@ -88,6 +91,16 @@ pub(crate) fn project<D: Dim>(
     let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel);
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     let mut hessian_fallbacks = 0;
+    let nf = e.fluid;
+    // The divergence (and A) read the walls' free-slip velocity, see `WallModel`.
+    let u_star: &[D::Vector] = match &e.walls {
+        Some(w) => {
+            e.u_div.copy_from_slice(u_star);
+            w.free_slip_velocity(&ctx, u_star, &mut e.u_div[nf..]);
+            &e.u_div
+        }
+        None => u_star,
+    };
     match equation {
         Equation::Ppe => {
             divergence(&ctx, u_star, l, &mut e.source);
@@ -129,6 +142,18 @@ pub(crate) fn project<D: Dim>(
             .map_err(|source| StepError::Assembly { step, t, source })?;
         }
     }
+    if nf < ctx.len() {
+        let g = e.config.effects.gravity.unwrap_or([0.0; 3]);
+        assemble_wall_rows(
+            &ctx,
+            nf,
+            densities,
+            D::Vector::from_fn(|k| g[k]),
+            &mut e.matrix,
+            &mut e.rhs,
+        )
+        .map_err(|source| StepError::Assembly { step, t, source })?;
+    }
     for (p, d) in pressures.iter_mut().zip(&e.dirichlet) {
         if *d {
             *p = 0.0;
@@ -140,17 +165,29 @@ pub(crate) fn project<D: Dim>(
         values: &e.matrix.values,
         rhs: &e.rhs,
     };
-    let solve = e
-        .solver
-        .solve(&system, pressures, &e.config.solve)
-        .map_err(|source| StepError::Solve { step, t, source })?;
+    // No Dirichlet row: a closed domain, pressure defined up to a constant → mean-zero gauge.
+    let solve = if e.dirichlet.iter().any(|d| *d) {
+        e.gauge.last_multiplier = 0.0;
+        e.solver.solve(&system, pressures, &e.config.solve)
+    } else {
+        e.gauge
+            .solve(&mut e.solver, &system, nf, pressures, &e.config.solve)
+    }
+    .map_err(|source| StepError::Solve { step, t, source })?;
     gradient(&ctx, pressures, e.config.gradient, l, &mut e.grad_p);
     for (((un, us), g), rho) in u_new.iter_mut().zip(u_star).zip(&e.grad_p).zip(densities) {
         *un = *us - *g * (dt / rho);
     }
+    if let Some(w) = &e.walls {
+        w.free_slip_velocity(&ctx, &u_new[..nf], &mut e.u_div[nf..]);
+        u_new[nf..].copy_from_slice(&e.u_div[nf..]);
+    }
     divergence(&ctx, u_new, l, &mut e.scalar);
-    let max_div_u = e
-        .scalar
+    // Wall particles keep their prescribed velocity.
+    if let Some(w) = &e.walls {
+        u_new[nf..].copy_from_slice(&w.velocity);
+    }
+    let max_div_u = e.scalar[..nf]
         .iter()
         .zip(&e.dirichlet)
         .filter(|(_, d)| !**d)
@@ -160,6 +197,7 @@ pub(crate) fn project<D: Dim>(
         solve,
         max_div_u,
         free_surface: e.dirichlet.iter().filter(|d| **d).count(),
+        gauge_multiplier: e.gauge.last_multiplier,
         hessian_fallbacks,
     })
 }
@@ -176,7 +214,7 @@ pub(crate) fn det_f_stats<D: Dim>(
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     deformation_gradient(&ctx, disp, l, f);
     let (mut min, mut max, mut sum, mut count) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
-    for (fi, d) in f.iter().zip(&e.dirichlet) {
+    for (fi, d) in f[..e.fluid].iter().zip(&e.dirichlet) {
         if !*d {
             let det = fi.determinant();
             min = min.min(det);

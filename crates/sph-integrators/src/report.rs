@@ -33,6 +33,11 @@ pub struct StepReport {
     pub correction_fallbacks: usize,
     /// Rows where the quadratic-fit Hessian fell back to Eq. 25 (DG only).
     pub hessian_fallbacks: usize,
+    /// Multiplier of the mean-zero pressure gauge (closed domains; 0 otherwise): the
+    /// right-hand-side part incompatible with a constant pressure null space.
+    pub gauge_multiplier: f64,
+    /// Fluid particles outside the wall container after the step (0 without walls).
+    pub wall_penetrations: usize,
     /// Wall time of the whole step in seconds.
     pub seconds: f64,
 }

@@ -1,9 +1,12 @@
 //! The three time-update schemes.
 
 use crate::projection::{Equation, det_f_stats, first_non_finite, prepare, project};
-use crate::{Simulation, StepError, StepReport};
+use crate::simulation::{Buffers, Engine};
+use crate::{Shifting, Simulation, StepError, StepReport, Walls};
 use serde::{Deserialize, Serialize};
 use sph_core::Dim;
+use sph_core::{ParticleSet, VectorOps};
+use sph_operators::{SphContext, concentration_gradient, velocity_gradient, viscous_acceleration};
 use std::time::Instant;
 
 /// One time-update scheme.
@@ -99,10 +102,73 @@ impl<D: Dim> Integrator<D> for Scheme {
     }
 }
 
-/// The explicit part `u* = uⁿ + Δt a` (no explicit forces yet: viscosity and body forces are
-/// effects that later issues add; an inviscid drop has none and runs no loop for them).
-fn intermediate_velocity<D: Dim>(sim: &mut Simulation<D>) {
-    sim.buf.u_star.copy_from_slice(&sim.particles.velocities);
+/// The explicit part of Algorithms 1 and 2, `u* = uⁿ + Δt (ν∇²uⁿ + f_b)`, on the neighbour
+/// lists of `e` (built at `xⁿ`). Only the declared effects run: without viscosity and gravity
+/// `u* = uⁿ` and no loop is entered. Wall particles keep their prescribed velocity; the viscous
+/// term reads the no-slip wall velocity `2u_w − ũ_w` (see [`WallModel`](crate::WallModel)).
+fn intermediate_velocity<D: Dim>(
+    e: &Engine<D>,
+    b: &mut Buffers<D>,
+    p: &ParticleSet<D>,
+    walls: Option<&Walls<D>>,
+    dt: f64,
+) {
+    b.u_star.copy_from_slice(&p.velocities);
+    let fx = e.config.effects;
+    if fx.viscosity.is_none() && fx.gravity.is_none() {
+        return;
+    }
+    let nf = e.fluid;
+    b.acc.fill(D::Vector::ZERO);
+    if let Some(v) = fx.viscosity {
+        let ctx = SphContext::new(&p.positions, &e.volumes, &e.neighbors, &e.kernel);
+        b.u_visc.copy_from_slice(&p.velocities);
+        if let Some(w) = walls {
+            w.no_slip_velocity(&ctx, &p.velocities, &mut b.u_visc[nf..]);
+        }
+        viscous_acceleration(&ctx, &p.masses, &p.densities, v.nu, &b.u_visc, &mut b.acc);
+    }
+    if let Some(g) = fx.gravity {
+        let g = D::Vector::from_fn(|k| g[k]);
+        for a in &mut b.acc[..nf] {
+            *a += g;
+        }
+    }
+    for (u, a) in b.u_star[..nf].iter_mut().zip(&b.acc[..nf]) {
+        *u += *a * dt;
+    }
+}
+
+/// Largest particle shift as a fraction of the initial spacing.
+const MAX_SHIFT: f64 = 0.2;
+
+/// Particle shifting (see [`Shifting`](crate::Shifting)) at the projection's configuration:
+/// adds `δr_i = −A h |uⁿ⁺¹_i| Δt ∇C_i` (capped at 0.2 Δp) to the fluid displacements and
+/// corrects `uⁿ⁺¹_i += ∇uⁿ⁺¹_i δr_i`.
+struct ShiftBuffers<'a, D: Dim> {
+    grad_c: &'a mut [D::Vector],
+    grad_u: &'a mut [D::Matrix],
+    u_new: &'a mut [D::Vector],
+    disp: &'a mut [D::Vector],
+}
+
+fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shifting, dt: f64) {
+    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel);
+    let l = e.config.renormalise.then_some(&e.corrections[..]);
+    concentration_gradient(&ctx, sh.spacing, b.grad_c);
+    velocity_gradient(&ctx, b.u_new, l, b.grad_u);
+    let h = e.config.h;
+    let cap = MAX_SHIFT * sh.spacing;
+    let nf = e.fluid;
+    for i in 0..nf {
+        let mut dr = b.grad_c[i] * (-sh.coefficient * h * b.u_new[i].length() * dt);
+        let len = dr.length();
+        if len > cap {
+            dr *= cap / len;
+        }
+        b.disp[i] += dr;
+        b.u_new[i] += b.grad_u[i] * dr;
+    }
 }
 
 /// Where the projection is evaluated and how positions are advanced.
@@ -129,8 +195,22 @@ fn projection_step<D: Dim>(
         return Err(StepError::InvalidTimeStep { step, dt });
     }
     sim.ensure_buffers();
-    intermediate_velocity(sim);
+    let viscous = sim.engine.config.effects.viscosity.is_some();
     let p = &sim.particles;
+    // The explicit forces read the lists at xⁿ (Algorithms 1–2: ν∇²uⁿ).
+    let mut correction_fallbacks = 0;
+    if viscous {
+        correction_fallbacks = prepare(
+            &mut sim.engine,
+            &p.positions,
+            &p.masses,
+            &p.densities,
+            step,
+            t,
+        )?;
+    }
+    intermediate_velocity(&sim.engine, &mut sim.buf, p, sim.engine.walls.as_ref(), dt);
+    let nf = sim.engine.fluid;
     let x_eval = match rule {
         PositionRule::Current => &p.positions,
         PositionRule::Predicted => {
@@ -140,13 +220,18 @@ fn projection_step<D: Dim>(
                 .iter_mut()
                 .zip(&p.positions)
                 .zip(&p.velocities)
+                .take(nf)
             {
                 *xp = *x + *u * dt;
             }
+            // Walls do not move (a lid's velocity is tangential and prescribed).
+            sim.buf.x_pred[nf..].copy_from_slice(&p.positions[nf..]);
             &sim.buf.x_pred
         }
     };
-    let correction_fallbacks = prepare(&mut sim.engine, x_eval, &p.masses, &p.densities, step, t)?;
+    if !(viscous && rule == PositionRule::Current) {
+        correction_fallbacks = prepare(&mut sim.engine, x_eval, &p.masses, &p.densities, step, t)?;
+    }
     // Work on a copy of the pressure so a failed solve leaves the particles untouched.
     sim.buf.p_work.copy_from_slice(&p.pressures);
     let projected = project(
@@ -181,6 +266,16 @@ fn projection_step<D: Dim>(
             PositionRule::Current => *un * dt,
             PositionRule::Predicted => (*u + *un) * half,
         };
+    }
+    sim.buf.disp[nf..].fill(D::Vector::ZERO);
+    if let Some(sh) = sim.engine.config.effects.shifting {
+        let bufs = ShiftBuffers {
+            grad_c: &mut sim.buf.grad_c,
+            grad_u: &mut sim.buf.grad_u,
+            u_new: &mut sim.buf.u_new,
+            disp: &mut sim.buf.disp,
+        };
+        shift(&sim.engine, bufs, x_eval, sh, dt);
     }
     let det_f = if sim.engine.config.diagnostics {
         if rule == PositionRule::Predicted {
@@ -217,6 +312,8 @@ fn projection_step<D: Dim>(
         free_surface_particles: projected.free_surface,
         correction_fallbacks,
         hessian_fallbacks: projected.hessian_fallbacks,
+        gauge_multiplier: projected.gauge_multiplier,
+        wall_penetrations: sim.wall_penetrations(),
         seconds: t0.elapsed().as_secs_f64(),
     };
     sim.t += dt;

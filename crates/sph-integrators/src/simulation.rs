@@ -1,8 +1,9 @@
 use crate::config::SimConfig;
+use crate::walls::{WallError, Walls};
 use sph_core::{CoreError, Dim, MatrixOps, ParticleSet, VectorOps};
 use sph_kernels::{AnyKernel, Kernel};
 use sph_neighbors::{AnySearch, NeighborList};
-use sph_pressure::{AnySolver, CsrMatrix};
+use sph_pressure::{AnySolver, CsrMatrix, MeanZeroGauge};
 
 /// A running simulation: the particles plus everything the schemes share (kernel, neighbour
 /// search and lists, linear solver, scratch buffers). Buffers are allocated on the first step
@@ -21,6 +22,11 @@ pub struct Simulation<D: Dim> {
 /// Kernel, search, solver and per-step scratch of the projection.
 pub(crate) struct Engine<D: Dim> {
     pub(crate) config: SimConfig,
+    /// Number of fluid particles (the first ones); the rest are wall particles.
+    pub(crate) fluid: usize,
+    pub(crate) walls: Option<Walls<D>>,
+    /// Velocities the divergence reads (fluid: u; walls: free-slip mirror).
+    pub(crate) u_div: Vec<D::Vector>,
     pub(crate) kernel: AnyKernel<D>,
     pub(crate) search: AnySearch<D>,
     pub(crate) neighbors: NeighborList,
@@ -35,6 +41,7 @@ pub(crate) struct Engine<D: Dim> {
     pub(crate) matrix: CsrMatrix,
     pub(crate) grad_p: Vec<D::Vector>,
     pub(crate) scalar: Vec<f64>,
+    pub(crate) gauge: MeanZeroGauge,
 }
 
 /// Velocity and position buffers of the schemes.
@@ -46,6 +53,12 @@ pub(crate) struct Buffers<D: Dim> {
     pub(crate) det_f: Vec<D::Matrix>,
     pub(crate) p_work: Vec<f64>,
     pub(crate) flags: Vec<bool>,
+    /// Explicit acceleration (viscosity, gravity) and the velocity the viscous term reads.
+    pub(crate) acc: Vec<D::Vector>,
+    pub(crate) u_visc: Vec<D::Vector>,
+    /// Shifting: ∇C and ∇uⁿ⁺¹.
+    pub(crate) grad_c: Vec<D::Vector>,
+    pub(crate) grad_u: Vec<D::Matrix>,
 }
 
 // A simulation can be moved to and shared between threads.
@@ -76,6 +89,10 @@ impl<D: Dim> Simulation<D> {
             matrix: CsrMatrix::default(),
             grad_p: Vec::new(),
             scalar: Vec::new(),
+            gauge: MeanZeroGauge::default(),
+            fluid: particles.len(),
+            walls: None,
+            u_div: Vec::new(),
             config,
         };
         let buf = Buffers {
@@ -86,6 +103,10 @@ impl<D: Dim> Simulation<D> {
             det_f: Vec::new(),
             p_work: Vec::new(),
             flags: Vec::new(),
+            acc: Vec::new(),
+            u_visc: Vec::new(),
+            grad_c: Vec::new(),
+            grad_u: Vec::new(),
         };
         Ok(Self {
             particles,
@@ -94,6 +115,46 @@ impl<D: Dim> Simulation<D> {
             engine,
             buf,
         })
+    }
+
+    /// A simulation of a fluid in walls: `particles` holds the fluid particles `0..walls.first`
+    /// followed by the wall particles, whose velocities are set to `walls.velocity`.
+    pub fn with_walls(
+        mut particles: ParticleSet<D>,
+        config: SimConfig,
+        walls: Walls<D>,
+    ) -> Result<Self, WallError> {
+        walls.check(particles.len())?;
+        particles.velocities[walls.first..].copy_from_slice(&walls.velocity);
+        let mut sim = Self::new(particles, config)?;
+        sim.engine.fluid = walls.first;
+        sim.engine.walls = Some(walls);
+        Ok(sim)
+    }
+
+    /// The walls, if any.
+    pub fn walls(&self) -> Option<&Walls<D>> {
+        self.engine.walls.as_ref()
+    }
+
+    /// Number of fluid particles (the first ones of [`Simulation::particles`]).
+    pub fn fluid_len(&self) -> usize {
+        self.engine.fluid
+    }
+
+    /// Fluid particles outside the wall container (0 without walls).
+    pub fn wall_penetrations(&self) -> usize {
+        self.engine
+            .walls
+            .as_ref()
+            .map_or(0, |w| w.penetrations(&self.particles.positions))
+    }
+
+    /// Multiplier of the mean-zero pressure gauge in the last step (0 unless the domain is
+    /// closed): the part of the pressure equation's right-hand side incompatible with a
+    /// constant null space.
+    pub fn gauge_multiplier(&self) -> f64 {
+        self.engine.gauge.last_multiplier
     }
 
     /// The configuration.
@@ -150,6 +211,9 @@ impl<D: Dim> Simulation<D> {
         e.rhs.resize(n, 0.0);
         e.grad_p.resize(n, D::Vector::ZERO);
         e.scalar.resize(n, 0.0);
+        if e.walls.is_some() {
+            e.u_div.resize(n, D::Vector::ZERO);
+        }
         let b = &mut self.buf;
         b.u_star.resize(n, D::Vector::ZERO);
         b.u_new.resize(n, D::Vector::ZERO);
@@ -158,5 +222,14 @@ impl<D: Dim> Simulation<D> {
         b.det_f.resize(n, D::Matrix::IDENTITY);
         b.p_work.resize(n, 0.0);
         b.flags.resize(n, false);
+        let fx = &self.engine.config.effects;
+        if fx.viscosity.is_some() || fx.gravity.is_some() {
+            b.acc.resize(n, D::Vector::ZERO);
+            b.u_visc.resize(n, D::Vector::ZERO);
+        }
+        if fx.shifting.is_some() {
+            b.grad_c.resize(n, D::Vector::ZERO);
+            b.grad_u.resize(n, D::Matrix::IDENTITY);
+        }
     }
 }

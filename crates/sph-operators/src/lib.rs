@@ -70,6 +70,7 @@ mod gradient;
 mod hessian;
 mod laplacian;
 mod quadratic_fit;
+mod shifting;
 #[cfg(test)]
 mod test_support;
 mod viscosity;
@@ -84,6 +85,7 @@ pub use gradient::{GradientForm, gradient};
 pub use hessian::{HessianForm, hessian, hessian_stencil_eq25};
 pub use laplacian::laplacian;
 pub use quadratic_fit::{QuadraticFitStats, hessian_quadratic_fit, hessian_stencil_fit};
+pub use shifting::concentration_gradient;
 pub use viscosity::viscous_acceleration;
 
 /// The dimension abstraction (re-export of `sph-core`).

@@ -23,6 +23,9 @@
 //! Free-surface particles get Dirichlet rows `p_i = 0`; their columns are eliminated from the
 //! other rows (their known value is 0), which keeps the PPE matrix symmetric.
 //!
+//! Wall (dummy) particles get the pressure-extrapolation rows of [`assemble_wall_rows`]; a
+//! closed domain (no Dirichlet row) fixes the free constant with [`MeanZeroGauge`].
+//!
 //! Solvers implement [`LinearSolver`]: [`BiCgStab`] with [`Preconditioner::Jacobi`] or
 //! [`Preconditioner::Ilu0`], warm-started from the previous pressure, and [`SparseLu`] (faer's
 //! sparse LU, for small systems and as a test oracle). Non-convergence is an error carrying the
@@ -32,6 +35,7 @@ mod assembly;
 mod csr;
 mod error;
 pub mod solver;
+mod walls;
 
 pub use assembly::{DgHessian, PressureRhs, assemble_dg, assemble_ppe};
 pub use csr::CsrMatrix;
@@ -40,3 +44,4 @@ pub use solver::{
     AnySolver, BiCgStab, CsrSystem, LinearSolver, Preconditioner, SolveInfo, SolveParams,
     SolverKind, SparseLu,
 };
+pub use walls::{MeanZeroGauge, assemble_wall_rows};

@@ -1,5 +1,6 @@
 //! Physics tests of the three ISPH schemes and of the paper's Section 3 analysis.
 
+mod cavity;
 mod drop_runs;
 mod section3;
 mod step_one;

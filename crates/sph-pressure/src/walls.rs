@@ -1,0 +1,183 @@
+//! Pressure rows of wall (dummy) particles and the gauge of closed domains.
+
+use crate::SolveError;
+use crate::csr::{CsrMatrix, for_each_row_mut};
+use crate::error::PressureError;
+use crate::solver::{CsrSystem, LinearSolver, SolveInfo, SolveParams};
+use rayon::prelude::*;
+use sph_core::{Dim, VectorOps};
+use sph_kernels::Kernel;
+use sph_operators::SphContext;
+
+/// Overwrites the rows `first_wall..n` (the wall particles) with the pressure extrapolation of
+/// Adami, Hu & Adams (2012), J. Comput. Phys. 231, 7057, Eq. (27), for walls at rest:
+///
+/// ```text
+/// p_w − Σ_f p_f W_wf / Σ_f W_wf = Σ_f ρ_f (g·(x_w − x_f)) W_wf / Σ_f W_wf
+/// ```
+///
+/// (sums over the fluid neighbours `f < first_wall` of `w`). This is the discrete homogeneous
+/// Neumann condition `∂p/∂n = ρ g·n` of a wall at rest; the wall pressures are unknowns of the
+/// same linear system, so the fluid rows' Laplacian (or DG Hessian) reaches them through the
+/// ordinary neighbour pattern. A wall particle with no fluid neighbour gets `p_w = 0`; it never
+/// influences a fluid particle, since it is further than one support radius from all of them.
+pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    first_wall: usize,
+    densities: &[f64],
+    gravity: D::Vector,
+    matrix: &mut CsrMatrix,
+    rhs: &mut [f64],
+) -> Result<(), PressureError> {
+    let nl = ctx.neighbors;
+    let n = ctx.len();
+    assert!(first_wall <= n && densities.len() == n && rhs.len() == n);
+    assert_eq!(matrix.values.len(), nl.nnz());
+    // Σ_f W_wf, Σ_f ρ_f g·(x_w − x_f) W_wf over the fluid neighbours of wall particle w.
+    let sums = |w: usize| {
+        let xw = ctx.positions[w];
+        let (mut sum_w, mut b) = (0.0, 0.0);
+        for &j in nl.row(w) {
+            let j = j as usize;
+            if j < first_wall {
+                let wij = ctx.kernel.w((xw - ctx.positions[j]).length());
+                sum_w += wij;
+                b += densities[j] * gravity.dot(xw - ctx.positions[j]) * wij;
+            }
+        }
+        (sum_w, b)
+    };
+    for_each_row_mut(nl.offsets(), &mut matrix.values, &|w, row| {
+        if w < first_wall {
+            return;
+        }
+        row.fill(0.0);
+        let cols = nl.row(w);
+        let (sum_w, _) = sums(w);
+        if sum_w > 0.0 {
+            let xw = ctx.positions[w];
+            for (c, &j) in cols.iter().enumerate() {
+                if (j as usize) < first_wall {
+                    row[c] = -ctx.kernel.w((xw - ctx.positions[j as usize]).length()) / sum_w;
+                }
+            }
+        }
+        let diag = cols
+            .binary_search(&(w as u32))
+            .expect("neighbour rows contain the particle");
+        row[diag] = 1.0;
+    });
+    rhs[first_wall..]
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(256)
+        .for_each(|(k, r)| {
+            *r = if gravity == D::Vector::ZERO {
+                0.0
+            } else {
+                let (sum_w, b) = sums(first_wall + k);
+                if sum_w > 0.0 { b / sum_w } else { 0.0 }
+            };
+        });
+    let bad = matrix.values[nl.offsets()[first_wall]..]
+        .iter()
+        .chain(&rhs[first_wall..])
+        .any(|v| !v.is_finite());
+    if bad {
+        return Err(PressureError::NonFinite {
+            what: "wall pressure row",
+            row: first_wall,
+        });
+    }
+    Ok(())
+}
+
+/// Gauge of a pressure equation without Dirichlet rows (a closed domain: the pressure is defined
+/// up to a constant). The system `M p = b` is bordered with the constraint `Σ_{i∈G} p_i = 0`
+/// over the gauge rows `G` (the fluid particles) and a Lagrange multiplier `λ` added to those
+/// rows:
+///
+/// ```text
+/// [ M    s·1_G ] [p]   [b]
+/// [ s·1_Gᵀ  0  ] [λ] = [0]
+/// ```
+///
+/// `s` (the mean diagonal of the gauge rows) only scales the border. The bordered matrix is
+/// regular when the singular `M` has the constants as its null space; `λ = (yᵀb)/(s yᵀ1_G)` is
+/// the part of `b` incompatible with the constants (`yᵀM = 0`), which the border spreads
+/// uniformly over the gauge rows instead of letting it drift the pressure level. No noise and no
+/// diagonal shift is added. The buffers are reused between steps.
+#[derive(Clone, Debug, Default)]
+pub struct MeanZeroGauge {
+    offsets: Vec<usize>,
+    cols: Vec<u32>,
+    values: Vec<f64>,
+    rhs: Vec<f64>,
+    x: Vec<f64>,
+    /// Multiplier `λ` of the last solve (in units of the right-hand side, i.e. `s·λ`).
+    pub last_multiplier: f64,
+}
+
+impl MeanZeroGauge {
+    /// Solves `system` (n unknowns) under the gauge `Σ_{i < gauge_rows} p_i = 0`; the gauge rows
+    /// are the first `gauge_rows` unknowns. `x` holds the warm start and receives the solution.
+    pub fn solve<S: LinearSolver + ?Sized>(
+        &mut self,
+        solver: &mut S,
+        system: &CsrSystem<'_>,
+        gauge_rows: usize,
+        x: &mut [f64],
+        params: &SolveParams,
+    ) -> Result<SolveInfo, SolveError> {
+        let n = system.n();
+        assert!(gauge_rows <= n && x.len() == n);
+        let diag_mean = (0..gauge_rows)
+            .map(|i| {
+                let (a, b) = (system.offsets[i], system.offsets[i + 1]);
+                system.cols[a..b]
+                    .binary_search(&(i as u32))
+                    .map(|k| system.values[a + k].abs())
+                    .unwrap_or(0.0)
+            })
+            .sum::<f64>()
+            / gauge_rows.max(1) as f64;
+        let s = if diag_mean > 0.0 { diag_mean } else { 1.0 };
+        self.offsets.clear();
+        self.cols.clear();
+        self.values.clear();
+        self.offsets.push(0);
+        for i in 0..n {
+            let (a, b) = (system.offsets[i], system.offsets[i + 1]);
+            self.cols.extend_from_slice(&system.cols[a..b]);
+            self.values.extend_from_slice(&system.values[a..b]);
+            if i < gauge_rows {
+                self.cols.push(n as u32);
+                self.values.push(s);
+            }
+            self.offsets.push(self.cols.len());
+        }
+        self.cols.extend(0..gauge_rows as u32);
+        self.values.extend(std::iter::repeat_n(s, gauge_rows));
+        self.cols.push(n as u32);
+        self.values.push(0.0);
+        self.offsets.push(self.cols.len());
+        self.rhs.clear();
+        self.rhs.extend_from_slice(system.rhs);
+        self.rhs.push(0.0);
+        // Warm start: the previous pressure with its mean removed, λ = 0.
+        let mean = x[..gauge_rows].iter().sum::<f64>() / gauge_rows.max(1) as f64;
+        self.x.clear();
+        self.x.extend(x.iter().map(|v| v - mean));
+        self.x.push(0.0);
+        let bordered = CsrSystem {
+            offsets: &self.offsets,
+            cols: &self.cols,
+            values: &self.values,
+            rhs: &self.rhs,
+        };
+        let info = solver.solve(&bordered, &mut self.x, params)?;
+        x.copy_from_slice(&self.x[..n]);
+        self.last_multiplier = s * self.x[n];
+        Ok(info)
+    }
+}
