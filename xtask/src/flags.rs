@@ -18,7 +18,7 @@ pub enum Command {
     /// Run the validation cases and compare them with reference data.
     Validate(ValidateArgs),
     /// Run one scene file and write its time series as CSV.
-    Run(RunArgs),
+    Run(Box<RunArgs>),
 }
 
 /// Flags of `cargo xtask run`.
@@ -59,6 +59,12 @@ pub struct RunArgs {
     /// Declare particle shifting with this coefficient A (Lind et al. 2012).
     #[arg(long)]
     pub shifting: Option<f64>,
+    /// Override the solver (`bicgstab_jacobi`, `bicgstab_ilu0`, `sparse_lu`).
+    #[arg(long)]
+    pub solver: Option<String>,
+    /// Override the solver's relative tolerance.
+    #[arg(long)]
+    pub solver_tolerance: Option<f64>,
     /// Output file prefix (default: the scene file's stem).
     #[arg(long)]
     pub tag: Option<String>,

@@ -58,6 +58,13 @@ pub fn apply_overrides(mut scene: Scene, args: &crate::flags::RunArgs) -> anyhow
             })
             .collect::<anyhow::Result<_>>()?;
     }
+    if let Some(k) = &args.solver {
+        scene.solver = serde_json::from_value(serde_json::Value::String(k.clone()))
+            .with_context(|| format!("--solver {k:?}"))?;
+    }
+    if let Some(t) = args.solver_tolerance {
+        scene.solver_tolerance = Some(t);
+    }
     if let Some(a) = args.shifting {
         scene.effects.shifting = Some(sph_cases::ShiftingSpec { coefficient: a });
     }

@@ -102,7 +102,9 @@ pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
 /// [ s·1_Gᵀ  0  ] [λ] = [0]
 /// ```
 ///
-/// `s` (the mean diagonal of the gauge rows) only scales the border. The bordered matrix is
+/// `s` (the mean diagonal of the gauge rows) only scales the border; the sum of the gauge rows is
+/// added to the border row (an equivalent system) so its diagonal is `s·|G|`, not 0, and
+/// Jacobi and ILU(0) apply unchanged. The bordered matrix is
 /// regular when the singular `M` has the constants as its null space; `λ = (yᵀb)/(s yᵀ1_G)` is
 /// the part of `b` incompatible with the constants (`yᵀM = 0`), which the border spreads
 /// uniformly over the gauge rows instead of letting it drift the pressure level. No noise and no
@@ -114,6 +116,7 @@ pub struct MeanZeroGauge {
     values: Vec<f64>,
     rhs: Vec<f64>,
     x: Vec<f64>,
+    colsum: Vec<f64>,
     /// Multiplier `λ` of the last solve (in units of the right-hand side, i.e. `s·λ`).
     pub last_multiplier: f64,
 }
@@ -156,14 +159,27 @@ impl MeanZeroGauge {
             }
             self.offsets.push(self.cols.len());
         }
-        self.cols.extend(0..gauge_rows as u32);
-        self.values.extend(std::iter::repeat_n(s, gauge_rows));
+        // Border row: the constraint s·Σ_G p_i = 0 plus the sum of the gauge rows (an
+        // equivalent system) so that its diagonal, s·|G|, is non-zero for Jacobi and ILU(0):
+        //   Σ_j (s·[j∈G] + Σ_{i∈G} M_ij) p_j + s|G| λ = Σ_{i∈G} b_i.
+        self.colsum.clear();
+        self.colsum.resize(n, 0.0);
+        for i in 0..gauge_rows {
+            for k in system.offsets[i]..system.offsets[i + 1] {
+                self.colsum[system.cols[k] as usize] += system.values[k];
+            }
+        }
+        for (j, c) in self.colsum.iter().enumerate() {
+            let v = c + if j < gauge_rows { s } else { 0.0 };
+            self.cols.push(j as u32);
+            self.values.push(v);
+        }
         self.cols.push(n as u32);
-        self.values.push(0.0);
+        self.values.push(s * gauge_rows as f64);
         self.offsets.push(self.cols.len());
         self.rhs.clear();
         self.rhs.extend_from_slice(system.rhs);
-        self.rhs.push(0.0);
+        self.rhs.push(system.rhs[..gauge_rows].iter().sum());
         // Warm start: the previous pressure with its mean removed, λ = 0.
         let mean = x[..gauge_rows].iter().sum::<f64>() / gauge_rows.max(1) as f64;
         self.x.clear();

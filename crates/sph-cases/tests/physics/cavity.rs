@@ -1,73 +1,101 @@
 //! Lid-driven cavity: walls, gauge, first step from rest, short runs.
 
 use sph_cases::{Scene, cavity};
-use sph_core::{D2, Dim, MatrixOps, VectorOps};
-use sph_integrators::{Integrator, Scheme, SchemeKind, Simulation};
-use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
-use sph_operators::{SphContext, correction_matrices, divergence};
+use sph_core::{D2, D3, Dim};
+use sph_integrators::{Integrator, Scheme, SchemeKind, Simulation, StepReport};
 
-fn scene(dx: f64, dt: f64, re: f64) -> Scene {
+fn scene(dim: usize, dx: f64, dt: f64, re: f64, shifting: bool) -> Scene {
+    let fx = if shifting {
+        "[effects]\nshifting = { coefficient = 2.0 }\n"
+    } else {
+        ""
+    };
     Scene::parse(
         "test",
         &format!(
-            "case = \"lid_driven_cavity\"\ndim = 2\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = {dt}\nt_end = 1.0\nschemes = [\"dg\"]\n[cavity]\nreynolds = {re}\n"
+            "case = \"lid_driven_cavity\"\ndim = {dim}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = {dt}\nt_end = 1.0\nschemes = [\"dg\"]\nsolver_tolerance = 1e-9\n[cavity]\nreynolds = {re}\n{fx}"
         ),
     )
     .unwrap()
 }
 
-/// Renormalised divergence of the particle velocities over the fluid (walls at their velocity).
-fn fluid_divergence<D: Dim>(sim: &Simulation<D>) -> Vec<f64> {
-    let p = &sim.particles;
-    let mut g = CellGrid::<D>::new();
-    g.build(&p.positions, sim.support_radius()).unwrap();
-    let mut nl = NeighborList::new();
-    g.query(&p.positions, &mut nl);
-    let vol: Vec<f64> = p
-        .masses
-        .iter()
-        .zip(&p.densities)
-        .map(|(m, r)| m / r)
-        .collect();
-    let ctx = SphContext::new(&p.positions, &vol, &nl, sim.kernel());
-    let mut l = vec![D::Matrix::IDENTITY; p.len()];
-    correction_matrices(&ctx, 1e-3, &mut l);
-    let mut div = vec![0.0; p.len()];
-    divergence(&ctx, &p.velocities, Some(&l), &mut div);
-    div.truncate(sim.fluid_len());
-    div
+fn first_step<D: Dim>(kind: SchemeKind) -> (StepReport, f64) {
+    let s = scene(
+        D::DIM,
+        if D::DIM == 2 { 0.05 } else { 0.125 },
+        0.01,
+        100.0,
+        false,
+    );
+    let c = cavity::setup::<D>(&s).unwrap();
+    let mut sim = Simulation::with_walls(c.particles, c.config, c.walls).unwrap();
+    let rep = Scheme::new(kind).step(&mut sim, 0.01).unwrap();
+    let nf = sim.fluid_len();
+    let p = &sim.particles.pressures[..nf];
+    let range = p.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+        - p.iter().cloned().fold(f64::INFINITY, f64::min);
+    (rep, range)
+}
+
+/// The first-step check: from rest, the DG pressure has the size of Euler's (a wrong
+/// wall contribution to A would put an O(1) spurious det A − 1 at the lid and blow it up), the
+/// step's mean det F is 1, and no particle crosses a wall.
+fn dg_first_step_pressure_matches_euler<D: Dim>() {
+    let (euler, pe) = first_step::<D>(SchemeKind::Euler);
+    let (dg, pd) = first_step::<D>(SchemeKind::Dg);
+    let ratio = pd / pe;
+    assert!(
+        (0.8..1.25).contains(&ratio),
+        "DG/Euler pressure range {ratio}"
+    );
+    for r in [euler, dg] {
+        assert_eq!(r.wall_penetrations, 0);
+        assert!(
+            r.det_f.is_some_and(|d| (d.mean - 1.0).abs() < 1e-3),
+            "{:?}",
+            r.det_f
+        );
+    }
 }
 
 #[test]
-fn first_step_from_rest_debug() {
-    let s = scene(0.05, 0.01, 100.0);
-    let c = cavity::setup::<D2>(&s).unwrap();
-    let mut sim = Simulation::with_walls(c.particles, c.config, c.walls).unwrap();
-    let mut sch = Scheme::new(SchemeKind::Euler);
-    for step in 0..40 {
-        let rep = sch.step(&mut sim, 0.01).unwrap();
-        if step % 10 != 0 && step != 39 {
-            continue;
-        }
-        let div = fluid_divergence(&sim);
-        let p = &sim.particles;
-        let mut worst: Vec<(f64, usize)> =
-            div.iter().enumerate().map(|(i, d)| (d.abs(), i)).collect();
-        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let med = worst[worst.len() / 2].0;
-        let p90 = worst[worst.len() / 10].0;
-        eprintln!(
-            "step {step} iters {} max_div {:.3e} median {med:.2e} p90 {p90:.2e} gauge {:.3e}",
-            rep.solve.iterations, rep.max_div_u, rep.gauge_multiplier
-        );
-        for (d, i) in worst.iter().take(4) {
-            eprintln!(
-                "  x {:.3?} div {:.3e} u {:.3?} p {:.3e}",
-                &p.positions[*i].to_array3()[..2],
-                d,
-                &p.velocities[*i].to_array3()[..2],
-                p.pressures[*i]
+fn dg_first_step_pressure_matches_euler_d2() {
+    dg_first_step_pressure_matches_euler::<D2>();
+}
+
+#[test]
+fn dg_first_step_pressure_matches_euler_d3() {
+    dg_first_step_pressure_matches_euler::<D3>();
+}
+
+/// A short run of every scheme: no wall penetration, no pressure drift, finite energy.
+fn short_run_holds<D: Dim>(t_end: f64) {
+    let dx = if D::DIM == 2 { 0.05 } else { 0.125 };
+    let mut s = scene(D::DIM, dx, 0.01, 100.0, true);
+    s.t_end = t_end;
+    s.cavity.as_mut().unwrap().check_ghia = Some(false);
+    for kind in SchemeKind::ALL {
+        let run = cavity::run::<D>(&s, kind, &mut |_, _| Ok(())).unwrap();
+        let last = run.records.last().unwrap();
+        assert!(last.kinetic_energy.is_finite() && last.kinetic_energy > 0.0);
+        for c in cavity::checks("t", &s, kind, &run) {
+            assert!(
+                c.passed(),
+                "{kind:?} {}: {} vs {}",
+                c.name,
+                c.value,
+                c.reference
             );
         }
     }
+}
+
+#[test]
+fn short_run_holds_d2() {
+    short_run_holds::<D2>(1.0);
+}
+
+#[test]
+fn short_run_holds_d3() {
+    short_run_holds::<D3>(0.2);
 }

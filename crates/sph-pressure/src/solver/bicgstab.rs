@@ -27,6 +27,9 @@ impl BiCgStab {
     }
 }
 
+/// Restarts allowed after a (r̂₀, r) breakdown.
+const MAX_RESTARTS: usize = 5;
+
 /// `a · b` by a fixed binary split into 4096-element leaves: the summation tree depends only on
 /// the length, so the result is bitwise independent of the thread count, and nothing allocates.
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -92,15 +95,34 @@ impl LinearSolver for BiCgStab {
         v.fill(0.0);
         let mut iterations = 0;
         let mut rnorm = dot(r, r).sqrt();
+        let mut restarts = 0;
         while rnorm > tol && iterations < params.max_iterations {
             iterations += 1;
             let rho_new = dot(r0, r);
-            if rho_new == 0.0 || !rho_new.is_finite() {
+            if !rho_new.is_finite() {
                 return Err(SolveError::Breakdown {
                     solver: name,
                     iterations,
-                    reason: "ρ = (r̂₀, r) vanished",
+                    reason: "ρ = (r̂₀, r) is not finite",
                 });
+            }
+            // (r̂₀, r) ≈ 0 with r ≠ 0: the shadow residual has become orthogonal. Restart with
+            // r̂₀ = r (a standard remedy), at most MAX_RESTARTS times.
+            if rho_new.abs() <= 1e-14 * dot(r0, r0).sqrt() * rnorm {
+                if restarts == MAX_RESTARTS {
+                    return Err(SolveError::Breakdown {
+                        solver: name,
+                        iterations,
+                        reason: "ρ = (r̂₀, r) vanished (after restarts)",
+                    });
+                }
+                restarts += 1;
+                r0.copy_from_slice(r);
+                p.fill(0.0);
+                v.fill(0.0);
+                (rho, alpha, omega) = (1.0, 1.0, 1.0);
+                iterations -= 1;
+                continue;
             }
             let beta = (rho_new / rho) * (alpha / omega);
             rho = rho_new;

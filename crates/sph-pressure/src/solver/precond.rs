@@ -5,8 +5,7 @@ use rayon::prelude::*;
 /// Preconditioner of [`BiCgStab`](super::BiCgStab).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Preconditioner {
-    /// `M = diag(A)` (a row with a zero diagonal is scaled by its largest entry): parallel, no
-    /// setup cost.
+    /// `M = diag(A)`: parallel, no setup cost.
     Jacobi,
     /// Incomplete LU with zero fill on the matrix's own pattern (Saad 2003, Alg. 10.4).
     /// Sequential setup and triangular solves; cuts iterations several-fold on SPH Laplacians.
@@ -42,14 +41,7 @@ impl PrecondState {
             Preconditioner::Jacobi => {
                 self.inv_diag.clear();
                 for i in 0..n {
-                    let mut d = a.values[self.diag_pos[i]];
-                    if d == 0.0 {
-                        // A structurally zero diagonal (the border row of a mean-zero gauge):
-                        // scale the row by its largest entry instead. An all-zero row is singular.
-                        d = a.values[a.offsets[i]..a.offsets[i + 1]]
-                            .iter()
-                            .fold(0.0_f64, |m, v| m.max(v.abs()));
-                    }
+                    let d = a.values[self.diag_pos[i]];
                     if d == 0.0 || !d.is_finite() {
                         return Err(SolveError::SingularPivot { row: i, value: d });
                     }

@@ -195,3 +195,66 @@ fn solve_is_independent_of_thread_count() {
     assert_eq!(run(1), run(3));
     let _ = D3;
 }
+
+sph_core::dim_tests! {
+    fn mean_zero_gauge_solves_an_incompatible_pure_neumann_ppe<D>() {
+        // No Dirichlet row: M is singular (constants), and b = M x* + c·1 is incompatible.
+        let mut fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
+        fx.dirichlet.fill(false);
+        let m = fx.ppe();
+        let (x_star, mut b) = manufactured(&fx, &m);
+        let c = 0.37;
+        for v in &mut b {
+            *v += c;
+        }
+        let n = b.len();
+        let mean_star = x_star.iter().sum::<f64>() / n as f64;
+        let sys = CsrSystem { offsets: fx.nl.offsets(), cols: fx.nl.indices(), values: &m.values, rhs: &b };
+        let params = SolveParams { rel_tolerance: 1e-11, max_iterations: 5000 };
+        for kind in [SolverKind::BicgstabJacobi, SolverKind::BicgstabIlu0, SolverKind::SparseLu] {
+            let mut gauge = crate::MeanZeroGauge::default();
+            let mut p = vec![0.0; n];
+            gauge.solve(&mut AnySolver::new(kind), &sys, n, &mut p, &params).unwrap();
+            let sum = p.iter().sum::<f64>();
+            assert!(sum.abs() < 1e-8 * n as f64, "{kind:?}: Σp = {sum}");
+            // The incompatible part is returned as the multiplier, not as a pressure drift.
+            assert!((gauge.last_multiplier - c).abs() < 1e-6, "{kind:?}: λ = {}", gauge.last_multiplier);
+            let err = p.iter().zip(&x_star).map(|(a, b)| (a - (b - mean_star)).abs()).fold(0.0, f64::max);
+            assert!(err < 1e-6, "{kind:?}: max error {err}");
+        }
+    }
+
+    fn wall_rows_are_exact_for_a_hydrostatic_pressure<D>() {
+        // Inner particles are fluid, the outer shell walls (stored last).
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
+        let (mut inner, outer): (Vec<D::Vector>, Vec<D::Vector>) =
+            fx.pts.iter().partition(|x| x.length() <= 0.4);
+        let first = inner.len();
+        inner.extend(outer);
+        let pts = inner;
+        let mut grid = CellGrid::<D>::new();
+        grid.build(&pts, fx.kernel.support_radius()).unwrap();
+        let mut nl = NeighborList::new();
+        grid.query(&pts, &mut nl);
+        let ctx = SphContext::new(&pts, &fx.vols, &nl, &fx.kernel);
+        let rho = 1.7;
+        let dens = vec![rho; pts.len()];
+        let g = D::Vector::from_fn(|k| -(k as f64 + 1.0));
+        let mut m = CsrMatrix::default();
+        m.resize(nl.nnz());
+        let mut rhs = vec![0.0; pts.len()];
+        crate::assemble_wall_rows(&ctx, first, &dens, g, &mut m, &mut rhs).unwrap();
+        // p = ρ g·x satisfies every wall row exactly; rows sum to zero (constants are in the
+        // null space); fluid rows are left alone.
+        let p: Vec<f64> = pts.iter().map(|x| rho * g.dot(*x)).collect();
+        let mut mp = vec![0.0; p.len()];
+        m.matvec(nl.offsets(), nl.indices(), &p, &mut mp);
+        for w in first..pts.len() {
+            let (a, b) = (nl.offsets()[w], nl.offsets()[w + 1]);
+            let row_sum: f64 = m.values[a..b].iter().sum();
+            assert!(row_sum.abs() < 1e-12, "row {w} sums to {row_sum}");
+            assert!((mp[w] - rhs[w]).abs() < 1e-10 * (1.0 + rhs[w].abs()), "row {w}: {} vs {}", mp[w], rhs[w]);
+        }
+        assert!(m.values[..nl.offsets()[first]].iter().all(|v| *v == 0.0));
+    }
+}
