@@ -99,3 +99,30 @@ fn short_run_holds_d2() {
 fn short_run_holds_d3() {
     short_run_holds::<D3>(0.2);
 }
+
+/// The ordering of the paper's Figs. 7 and 9: DG-ISPH's RMS density error (Eq. 31) below Euler's
+/// and below predictor–corrector's. **Not reproduced** (so ignored; run with `--ignored`): at
+/// 20², Re 400, Wendland C2, t = 2 with shifting the measured RMS errors are Euler 1.68e-2,
+/// PC 1.61e-2, DG 1.75e-2; at t = 10 (Re 100) Euler 3.04e-2, PC 3.12e-2, DG 2.91e-2; without
+/// shifting all three agree to 1 % (1.17e-2 at t = 0.3) until they fail together at t ≈ 0.6.
+/// The density error here is set by the walls, the gauge incompatibility and shifting, not by
+/// the scheme's O(Δt²) volume error. See the README ("Lid-driven cavity").
+#[test]
+#[ignore = "paper's density ordering not reproduced; evidence in the doc comment and README"]
+fn dg_density_error_below_euler_and_pc() {
+    let mut s = scene(2, 0.05, 0.01, 400.0, true);
+    s.t_end = 2.0;
+    let rms = |kind| {
+        let run = cavity::run::<D2>(&s, kind, &mut |_, _| Ok(())).unwrap();
+        run.records.last().unwrap().density_error_rms
+    };
+    let (e, p, d) = (
+        rms(SchemeKind::Euler),
+        rms(SchemeKind::PredictorCorrector),
+        rms(SchemeKind::Dg),
+    );
+    assert!(
+        d < e && d < p,
+        "RMS density error: Euler {e:.3e}, PC {p:.3e}, DG {d:.3e}"
+    );
+}
