@@ -4,7 +4,7 @@ use crate::flags::Preset;
 use anyhow::Context;
 use sph_cases::cavity;
 use sph_cases::drop::{self, DropRecord};
-use sph_cases::{CaseKind, Check, Scene, prescribed};
+use sph_cases::{CaseError, CaseKind, Check, Scene, prescribed};
 use sph_core::{D2, D3, Dim};
 use sph_integrators::SchemeKind;
 use std::io::Write;
@@ -162,59 +162,112 @@ fn write_file(path: &Path, text: &str) -> anyhow::Result<()> {
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
 }
 
+/// The files of one scheme's run: the CSV time series (one row per record, flushed as it is
+/// produced, so a failing step loses nothing already computed) and the MCAP log (finished on
+/// every path: explicitly by [`SchemeOutput::finish`], or on drop).
+struct SchemeOutput {
+    header: &'static str,
+    csv_path: PathBuf,
+    csv: std::io::BufWriter<std::fs::File>,
+    sink: crate::mcap_sink::McapSink,
+}
+
+impl SchemeOutput {
+    /// Creates `<out>/<stem>.csv` (with `header`) and `<out>/<mcap_stem>.mcap` (every
+    /// `stride`-th particle frame, the scene as metadata).
+    fn create<D: Dim>(
+        out: &Path,
+        csv_path: PathBuf,
+        mcap_stem: &str,
+        header: &'static str,
+        scene: &Scene,
+        scheme: SchemeKind,
+        stride: usize,
+    ) -> anyhow::Result<Self> {
+        let file = std::fs::File::create(&csv_path)
+            .with_context(|| format!("creating {}", csv_path.display()))?;
+        let mut csv = std::io::BufWriter::new(file);
+        writeln!(csv, "{header}")?;
+        let mut meta = std::collections::BTreeMap::new();
+        meta.insert("case".into(), scene.case.name().to_string());
+        meta.insert("scheme".into(), scheme.name().to_string());
+        meta.insert("dim".into(), D::DIM.to_string());
+        meta.insert("scene".into(), serde_json::to_string(scene)?);
+        let mcap_path = out.join(format!("{mcap_stem}.mcap"));
+        let sink = crate::mcap_sink::McapSink::create(&mcap_path, stride, meta)?;
+        Ok(Self {
+            header,
+            csv_path,
+            csv,
+            sink,
+        })
+    }
+
+    /// Writes one CSV row and logs it (as a flat JSON object keyed by the header) with the frame.
+    fn record(&mut self, row: &str, frame: &dyn sph_integrators::Frame) -> std::io::Result<()> {
+        let metrics: serde_json::Map<String, serde_json::Value> = self
+            .header
+            .split(',')
+            .zip(row.split(','))
+            .map(|(k, v)| {
+                (
+                    k.to_string(),
+                    v.parse::<f64>().map_or_else(|_| v.into(), |x| x.into()),
+                )
+            })
+            .collect();
+        self.sink.frame(frame, &serde_json::Value::Object(metrics));
+        writeln!(self.csv, "{row}")?;
+        self.csv.flush()
+    }
+
+    fn finish(&mut self) -> anyhow::Result<()> {
+        self.sink.finish()
+    }
+
+    /// Reports a failed run on stderr (as `who`) and as the failing check `<what> run completes`.
+    fn failed(&self, case: &str, who: &str, what: &str, error: &CaseError) -> Check {
+        eprintln!(
+            "  {who}: FAILED: {error} (rows so far in {})",
+            self.csv_path.display()
+        );
+        Check::new(
+            case,
+            format!("{what} run completes"),
+            0.0,
+            1.0,
+            0.0,
+            error.to_string(),
+        )
+    }
+}
+
 fn run_cavity<D: Dim>(scene: &Scene, name: &str, out: &Path) -> anyhow::Result<SceneResult> {
     let case = scene.case.name();
     let mut result = SceneResult::default();
     for &scheme in &scene.schemes {
         let stem = format!("{name}_{}", scheme.name());
-        let path = out.join(format!("{stem}.csv"));
-        let file =
-            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
-        let mut w = std::io::BufWriter::new(file);
-        writeln!(w, "{CAVITY_HEADER}")?;
-        let mut meta = std::collections::BTreeMap::new();
-        meta.insert("case".into(), case.to_string());
-        meta.insert("scheme".into(), scheme.name().to_string());
-        meta.insert("dim".into(), D::DIM.to_string());
-        meta.insert("scene".into(), serde_json::to_string(scene)?);
         // About 40 particle frames per run; metrics at every record.
-        let mcap_path = out.join(format!("{stem}.mcap"));
-        let mut sink = crate::mcap_sink::McapSink::create(&mcap_path, 10, meta)?;
+        let mut output = SchemeOutput::create::<D>(
+            out,
+            out.join(format!("{stem}.csv")),
+            &format!("{name}-{}", scheme.name()),
+            CAVITY_HEADER,
+            scene,
+            scheme,
+            10,
+        )?;
         let t0 = std::time::Instant::now();
         let outcome = cavity::run::<D>(scene, scheme, &mut |r, frame| {
-            let row = cavity_row(r);
-            let metrics: serde_json::Map<String, serde_json::Value> = CAVITY_HEADER
-                .split(',')
-                .zip(row.split(','))
-                .map(|(k, v)| {
-                    (
-                        k.to_string(),
-                        v.parse::<f64>().map_or_else(|_| v.into(), |x| x.into()),
-                    )
-                })
-                .collect();
-            sink.frame(frame, &serde_json::Value::Object(metrics));
-            writeln!(w, "{row}")?;
-            w.flush()
+            output.record(&cavity_row(r), frame)
         });
-        sink.finish()?;
+        output.finish()?;
         let wall_s = t0.elapsed().as_secs_f64();
         let run = match outcome {
             Ok(r) => r,
             Err(e) => {
-                eprintln!(
-                    "  {name} {}: FAILED: {e} (rows so far in {})",
-                    scheme.name(),
-                    path.display()
-                );
-                result.checks.push(Check::new(
-                    case,
-                    format!("{name} {} run completes", scheme.name()),
-                    0.0,
-                    1.0,
-                    0.0,
-                    e.to_string(),
-                ));
+                let label = format!("{name} {}", scheme.name());
+                result.checks.push(output.failed(case, &label, &label, &e));
                 continue;
             }
         };
@@ -329,56 +382,27 @@ fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<SceneResult> {
     let mut infos = Vec::new();
     let n_particles = drop::setup::<D>(scene).particles.len();
     for &scheme in &scene.schemes {
-        let path = csv_path(out, scene, scheme.name());
-        let file =
-            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
-        let mut w = std::io::BufWriter::new(file);
-        writeln!(w, "{DROP_HEADER}")?;
+        let mut output = SchemeOutput::create::<D>(
+            out,
+            csv_path(out, scene, scheme.name()),
+            &format!("{}-{}", case, scheme.name()),
+            DROP_HEADER,
+            scene,
+            scheme,
+            1,
+        )?;
         let mut first: Option<DropRecord> = None;
         let t0 = std::time::Instant::now();
-        let mcap_path = out.join(format!("{}-{}.mcap", case, scheme.name()));
-        let mut meta = std::collections::BTreeMap::new();
-        meta.insert("case".into(), case.to_string());
-        meta.insert("scheme".into(), scheme.name().to_string());
-        meta.insert("dim".into(), D::DIM.to_string());
-        meta.insert("scene".into(), serde_json::to_string(scene)?);
-        let mut sink = crate::mcap_sink::McapSink::create(&mcap_path, 1, meta)?;
-        // Each row is flushed as it is produced: a failing step loses nothing already computed,
-        // and the MCAP file is finished on every path (explicitly below, or on drop).
         let records = drop::run::<D>(scene, scheme, &mut |r, frame| {
             let f = first.get_or_insert_with(|| r.clone());
-            let row = drop_row(r, f);
-            let metrics: serde_json::Map<String, serde_json::Value> = DROP_HEADER
-                .split(',')
-                .zip(row.split(','))
-                .map(|(k, v)| {
-                    (
-                        k.to_string(),
-                        v.parse::<f64>().map_or_else(|_| v.into(), |x| x.into()),
-                    )
-                })
-                .collect();
-            sink.frame(frame, &serde_json::Value::Object(metrics));
-            writeln!(w, "{row}")?;
-            w.flush()
+            output.record(&drop_row(r, f), frame)
         });
-        sink.finish()?;
+        output.finish()?;
         let records = match records {
             Ok(r) => r,
             Err(e) => {
-                eprintln!(
-                    "  {case} {}: FAILED: {e} (rows so far in {})",
-                    scheme.name(),
-                    path.display()
-                );
-                checks.push(Check::new(
-                    case,
-                    format!("{} run completes", scheme.name()),
-                    0.0,
-                    1.0,
-                    0.0,
-                    e.to_string(),
-                ));
+                let who = format!("{case} {}", scheme.name());
+                checks.push(output.failed(case, &who, scheme.name(), &e));
                 continue;
             }
         };

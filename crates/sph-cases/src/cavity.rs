@@ -25,7 +25,7 @@ use sph_integrators::{
 };
 use sph_kernels::Kernel;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
-use sph_operators::density_at_points;
+use sph_operators::{SphContext, density_at_points};
 
 const GHIA_U: &str = include_str!("../../../cases/reference/ghia_u_vertical.csv");
 const GHIA_V: &str = include_str!("../../../cases/reference/ghia_v_horizontal.csv");
@@ -402,135 +402,85 @@ pub fn steady_time(records: &[CavityRecord], window: f64, tol: f64) -> Option<f6
     steady_since
 }
 
-/// Ghia's table column for `re`: `(coordinate, value)` rows.
-fn ghia_column(text: &str, re: f64) -> Option<Vec<(f64, f64)>> {
+/// Ghia's table `text` as `(coordinate, value at re)` rows; the values are NaN when `re` is not
+/// tabulated (the coordinates are the same for every Re).
+fn ghia_table(text: &str, re: f64) -> Vec<(f64, f64)> {
     let mut lines = text.lines();
-    let header: Vec<&str> = lines.next()?.split(',').collect();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
     let col = header
         .iter()
-        .position(|h| h.strip_prefix("Re").and_then(|v| v.parse::<f64>().ok()) == Some(re))?;
-    Some(
-        lines
-            .filter(|l| !l.trim().is_empty())
-            .map(|l| {
-                let f: Vec<f64> = l
-                    .split(',')
-                    .map(|v| v.trim().parse().unwrap_or(f64::NAN))
-                    .collect();
-                (f[0], f[col])
-            })
-            .collect(),
-    )
+        .position(|h| h.strip_prefix("Re").and_then(|v| v.parse::<f64>().ok()) == Some(re));
+    lines
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .map(|v| v.trim().parse().unwrap_or(f64::NAN))
+                .collect();
+            (f[0], col.map_or(f64::NAN, |c| f[c]))
+        })
+        .collect()
 }
 
-/// Interpolated velocity component `k` at `x`: Shepard average over fluid particles and the wall
-/// particles' no-slip velocity `2u_w − ũ_w`.
-fn sample_velocity<D: Dim>(
-    sim: &Simulation<D>,
-    grid: &CellGrid<D>,
-    ghost_u: &[D::Vector],
-    x: D::Vector,
-) -> D::Vector {
-    let p = &sim.particles;
-    let nf = sim.fluid_len();
-    let kernel = sim.kernel();
-    let mut lists = NeighborList::new();
-    grid.query(std::slice::from_ref(&x), &mut lists);
-    let (mut sw, mut su) = (0.0, D::Vector::ZERO);
-    for &j in lists.row(0) {
-        let j = j as usize;
-        let w = kernel.w((x - p.positions[j]).length()) * p.masses[j] / p.densities[j];
-        let u = if j < nf {
-            p.velocities[j]
-        } else {
-            ghost_u[j - nf]
-        };
-        sw += w;
-        su += u * w;
-    }
-    if sw > 0.0 {
-        su * (1.0 / sw)
-    } else {
-        D::Vector::ZERO
-    }
-}
-
-/// Centreline profiles at Ghia's coordinates (the mid-plane `z = 0.5` in 3D).
+/// Centreline profiles at Ghia's coordinates (the mid-plane `z = 0.5` in 3D), normalised by
+/// the lid speed: Shepard interpolation over the fluid particles and the wall particles'
+/// no-slip velocity `2u_wall − ũ_w` (the field a mirror ghost would carry).
 pub fn profiles<D: Dim>(sim: &Simulation<D>, re: f64) -> Profiles {
     let p = &sim.particles;
     let nf = sim.fluid_len();
-    let r = sim.support_radius();
-    let mut grid = CellGrid::<D>::new();
-    grid.build(&p.positions, r).expect("finite positions");
-    // No-slip ghost velocities of the wall particles.
     let walls = sim.walls().expect("cavity has walls");
+    let mut grid = CellGrid::<D>::new();
+    grid.build(&p.positions, sim.support_radius())
+        .expect("finite positions");
     let mut lists = NeighborList::new();
-    grid.query(&p.positions[nf..], &mut lists);
-    let kernel = sim.kernel();
-    let ghost_u: Vec<D::Vector> = (0..p.len() - nf)
-        .map(|k| {
-            let xw = p.positions[nf + k];
-            let (mut sw, mut su) = (0.0, D::Vector::ZERO);
-            for &j in lists.row(k) {
-                let j = j as usize;
-                if j < nf {
-                    let w = kernel.w((xw - p.positions[j]).length());
-                    sw += w;
-                    su += p.velocities[j] * w;
-                }
-            }
-            if sw > 0.0 {
-                walls.velocity[k] * 2.0 - su * (1.0 / sw)
-            } else {
-                walls.velocity[k]
-            }
-        })
+    grid.query(&p.positions, &mut lists);
+    let volumes: Vec<f64> = p
+        .masses
+        .iter()
+        .zip(&p.densities)
+        .map(|(m, r)| m / r)
         .collect();
+    let ctx = SphContext::new(&p.positions, &volumes, &lists, sim.kernel());
+    let mut u = p.velocities.clone();
+    walls.no_slip_velocity(&ctx, &p.velocities, &mut u[nf..]);
     let lid = walls
         .velocity
         .iter()
-        .map(|u| u.get(0).abs())
+        .map(|v| v.get(0).abs())
         .fold(0.0, f64::max);
-    let coords_u = ghia_column(GHIA_U, re).unwrap_or_else(|| {
-        ghia_column(GHIA_U, 100.0)
-            .unwrap_or_default()
-            .into_iter()
-            .map(|(c, _)| (c, f64::NAN))
-            .collect()
-    });
-    let coords_v = ghia_column(GHIA_V, re).unwrap_or_else(|| {
-        ghia_column(GHIA_V, 100.0)
-            .unwrap_or_default()
-            .into_iter()
-            .map(|(c, _)| (c, f64::NAN))
-            .collect()
-    });
-    let at = |a: f64, b: f64| {
-        D::Vector::from_fn(|k| match k {
-            0 => a,
-            1 => b,
-            _ => 0.5,
-        })
-    };
-    let u_vertical = coords_u
+    let at = |a: f64, b: f64| D::Vector::from_fn(|k| [a, b, 0.5][k]);
+    let rows_u = ghia_table(GHIA_U, re);
+    let rows_v = ghia_table(GHIA_V, re);
+    let points: Vec<D::Vector> = rows_u
         .iter()
-        .map(|&(y, g)| {
-            (
-                y,
-                sample_velocity(sim, &grid, &ghost_u, at(0.5, y)).get(0) / lid,
-                g,
-            )
-        })
+        .map(|&(y, _)| at(0.5, y))
+        .chain(rows_v.iter().map(|&(x, _)| at(x, 0.5)))
         .collect();
-    let v_horizontal = coords_v
+    grid.query(&points, &mut lists);
+    let sample = |a: usize| {
+        let x = points[a];
+        let (mut sw, mut su) = (0.0, D::Vector::ZERO);
+        for &j in lists.row(a) {
+            let j = j as usize;
+            let w = sim.kernel().w((x - p.positions[j]).length()) * volumes[j];
+            sw += w;
+            su += u[j] * w;
+        }
+        if sw > 0.0 {
+            su * (1.0 / (sw * lid))
+        } else {
+            D::Vector::ZERO
+        }
+    };
+    let u_vertical = rows_u
         .iter()
-        .map(|&(x, g)| {
-            (
-                x,
-                sample_velocity(sim, &grid, &ghost_u, at(x, 0.5)).get(1) / lid,
-                g,
-            )
-        })
+        .enumerate()
+        .map(|(a, &(y, g))| (y, sample(a).get(0), g))
+        .collect();
+    let v_horizontal = rows_v
+        .iter()
+        .enumerate()
+        .map(|(a, &(x, g))| (x, sample(rows_u.len() + a).get(1), g))
         .collect();
     Profiles {
         u_vertical,

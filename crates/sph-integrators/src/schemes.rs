@@ -200,14 +200,7 @@ fn projection_step<D: Dim>(
     // The explicit forces read the lists at xⁿ (Algorithms 1–2: ν∇²uⁿ).
     let mut correction_fallbacks = 0;
     if viscous {
-        correction_fallbacks = prepare(
-            &mut sim.engine,
-            &p.positions,
-            &p.masses,
-            &p.densities,
-            step,
-            t,
-        )?;
+        correction_fallbacks = prepare_current(&mut sim.engine, p, step, t)?;
     }
     intermediate_velocity(&sim.engine, &mut sim.buf, p, sim.engine.walls.as_ref(), dt);
     let nf = sim.engine.fluid;
@@ -282,14 +275,7 @@ fn projection_step<D: Dim>(
             // The step's deformation is measured from xⁿ: rebuild the lists there (keeping the
             // free-surface flags of the projection).
             sim.buf.flags.copy_from_slice(&sim.engine.dirichlet);
-            prepare(
-                &mut sim.engine,
-                &p.positions,
-                &p.masses,
-                &p.densities,
-                step,
-                t,
-            )?;
+            prepare_current(&mut sim.engine, p, step, t)?;
             sim.engine.dirichlet.copy_from_slice(&sim.buf.flags);
         }
         Some(det_f_stats(
@@ -319,6 +305,16 @@ fn projection_step<D: Dim>(
     sim.t += dt;
     sim.step += 1;
     Ok(report)
+}
+
+/// [`prepare`] at the particles' current positions `xⁿ`.
+fn prepare_current<D: Dim>(
+    e: &mut Engine<D>,
+    p: &ParticleSet<D>,
+    step: usize,
+    t: f64,
+) -> Result<usize, StepError> {
+    prepare(e, &p.positions, &p.masses, &p.densities, step, t)
 }
 
 /// Writes the step's results to the particles: `x += disp`, `u = u_new`, `p = p_work`.

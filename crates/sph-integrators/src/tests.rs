@@ -115,3 +115,64 @@ fn inconsistent_particles_are_rejected() {
     let err = Simulation::new(p, cfg).err().unwrap();
     assert!(err.to_string().contains("positions"), "{err}");
 }
+
+sph_core::dim_tests! {
+    fn wall_velocities_mirror_a_uniform_flow<D>() {
+        // Fluid on the lattice below y = 1 with a uniform velocity u₀; three layers of lid
+        // particles above it moving with (1, 0, 0), mirror (1, −1, 1). The Shepard average of a
+        // uniform field is exact, so: free slip (divergence) = u_wall + S(u₀ − u_wall) =
+        // (u₀x, −u₀y, u₀z); no slip (viscosity) = 2u_wall − u₀.
+        use sph_kernels::Kernel;
+        use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
+        let dx = 0.1;
+        let n = 8i64;
+        let span = if D::DIM == 3 { n } else { 1 };
+        let (mut fluid, mut wall) = (Vec::new(), Vec::new());
+        for k in 0..span {
+            for j in 0..n + 3 {
+                for i in 0..n {
+                    let idx = [i, j, k];
+                    let x = D::Vector::from_fn(|c| (idx[c] as f64 + 0.5) * dx);
+                    if j < n { fluid.push(x) } else { wall.push(x) }
+                }
+            }
+        }
+        let first = fluid.len();
+        let nw = wall.len();
+        fluid.extend(wall);
+        let kernel = KernelKind::WendlandC2.build::<D>(1.3 * dx);
+        let mut grid = CellGrid::<D>::new();
+        grid.build(&fluid, kernel.support_radius()).unwrap();
+        let mut nl = NeighborList::new();
+        grid.query(&fluid, &mut nl);
+        let vols = vec![dx.powi(D::DIM as i32); fluid.len()];
+        let ctx = sph_operators::SphContext::new(&fluid, &vols, &nl, &kernel);
+        let u0 = D::Vector::from_fn(|c| [0.3, 0.2, 0.1][c]);
+        let lid = D::Vector::from_fn(|c| if c == 0 { 1.0 } else { 0.0 });
+        let walls = Walls::<D> {
+            model: WallModel::DummyParticles,
+            first,
+            velocity: vec![lid; nw],
+            mirror: vec![D::Vector::from_fn(|c| if c == 1 { -1.0 } else { 1.0 }); nw],
+            lo: D::Vector::ZERO,
+            hi: D::Vector::from_fn(|_| 1.0),
+        };
+        let u = vec![u0; fluid.len()];
+        let (mut free, mut no) = (vec![D::Vector::ZERO; nw], vec![D::Vector::ZERO; nw]);
+        walls.free_slip_velocity(&ctx, &u, &mut free);
+        walls.no_slip_velocity(&ctx, &u, &mut no);
+        let want_free = D::Vector::from_fn(|c| if c == 1 { -u0.get(c) } else { u0.get(c) });
+        let want_no = lid * 2.0 - u0;
+        let mut checked = 0;
+        for k in 0..nw {
+            if ctx.neighbors_of(first + k).any(|j| j < first) {
+                assert!((free[k] - want_free).length() < 1e-12, "free slip {k}: {:?}", free[k].to_array3());
+                assert!((no[k] - want_no).length() < 1e-12, "no slip {k}: {:?}", no[k].to_array3());
+                checked += 1;
+            } else {
+                assert_eq!(free[k], lid);
+            }
+        }
+        assert!(checked >= 2 * n as usize);
+    }
+}

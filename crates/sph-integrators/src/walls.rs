@@ -80,8 +80,9 @@ impl<D: Dim> Walls<D> {
     }
 
     /// No-slip (viscous) wall velocity, Adami et al. (2012) Eqs. (22)–(23):
-    /// `u_w = 2 u_wall − ũ_w`, `ũ_w = Σ_f u_f W_wf / Σ_f W_wf` (fluid neighbours `f`).
-    pub(crate) fn no_slip_velocity<K: Kernel<D>>(
+    /// `u_w = 2 u_wall − ũ_w`, `ũ_w = Σ_f u_f W_wf / Σ_f W_wf` (fluid neighbours `f` from
+    /// `ctx`, whose particles are this simulation's). Writes one entry per wall particle.
+    pub fn no_slip_velocity<K: Kernel<D>>(
         &self,
         ctx: &SphContext<'_, D, K>,
         u: &[D::Vector],

@@ -286,3 +286,28 @@ fn quadratic_bounds(kind: KernelKind, dim: usize) -> (f64, f64) {
         (KernelKind::CubicSpline, _) => (1e-2, 7.4e-2),
     }
 }
+
+sph_core::dim_tests! {
+    fn concentration_gradient_vanishes_on_a_lattice_and_points_to_crowding<D>() {
+        // Lind et al.'s ∇C (with the anti-clumping term) is zero by symmetry at every complete
+        // lattice neighbourhood, and moving one neighbour closer turns it towards that neighbour.
+        let mut lat = Lattice::<D>::new(KernelKind::WendlandC2, 1.3, 0.0);
+        let mut g = vec![D::Vector::ZERO; lat.len()];
+        lat.with_ctx(|ctx| concentration_gradient(ctx, lat.dx, &mut g));
+        let scale = 1.0 / lat.dx;
+        for &i in &lat.interior() {
+            assert!(g[i].length() < 1e-10 * scale, "particle {i}: |∇C| = {}", g[i].length());
+        }
+        let c = lat.centre();
+        let xc = lat.positions[c];
+        let j = (0..lat.len())
+            .filter(|&j| j != c)
+            .min_by(|&a, &b| (lat.positions[a] - xc).length().total_cmp(&(lat.positions[b] - xc).length()))
+            .unwrap();
+        let dir = lat.positions[j] - xc;
+        lat.positions[j] = xc + dir * 0.7;
+        lat.with_ctx(|ctx| concentration_gradient(ctx, lat.dx, &mut g));
+        let cos = g[c].dot(dir) / (g[c].length() * dir.length());
+        assert!(cos > 0.999, "∇C at the centre is not towards the crowding neighbour: cos {cos}");
+    }
+}

@@ -33,33 +33,27 @@ pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
     let n = ctx.len();
     assert!(first_wall <= n && densities.len() == n && rhs.len() == n);
     assert_eq!(matrix.values.len(), nl.nnz());
-    // Σ_f W_wf, Σ_f ρ_f g·(x_w − x_f) W_wf over the fluid neighbours of wall particle w.
-    let sums = |w: usize| {
-        let xw = ctx.positions[w];
-        let (mut sum_w, mut b) = (0.0, 0.0);
-        for &j in nl.row(w) {
-            let j = j as usize;
-            if j < first_wall {
-                let wij = ctx.kernel.w((xw - ctx.positions[j]).length());
-                sum_w += wij;
-                b += densities[j] * gravity.dot(xw - ctx.positions[j]) * wij;
-            }
-        }
-        (sum_w, b)
-    };
+    // Row w: −W_wf / Σ_f W_wf on the fluid neighbours f, 1 on the diagonal.
     for_each_row_mut(nl.offsets(), &mut matrix.values, &|w, row| {
         if w < first_wall {
             return;
         }
-        row.fill(0.0);
         let cols = nl.row(w);
-        let (sum_w, _) = sums(w);
+        let xw = ctx.positions[w];
+        let mut sum_w = 0.0;
+        for (v, &j) in row.iter_mut().zip(cols) {
+            let j = j as usize;
+            *v = if j < first_wall {
+                let wij = ctx.kernel.w((xw - ctx.positions[j]).length());
+                sum_w += wij;
+                -wij
+            } else {
+                0.0
+            };
+        }
         if sum_w > 0.0 {
-            let xw = ctx.positions[w];
-            for (c, &j) in cols.iter().enumerate() {
-                if (j as usize) < first_wall {
-                    row[c] = -ctx.kernel.w((xw - ctx.positions[j as usize]).length()) / sum_w;
-                }
+            for v in row.iter_mut() {
+                *v /= sum_w;
             }
         }
         let diag = cols
@@ -67,17 +61,25 @@ pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
             .expect("neighbour rows contain the particle");
         row[diag] = 1.0;
     });
+    // rhs_w = Σ_f a_wf ρ_f g·(x_w − x_f) with the row's weights a_wf = −(row value).
+    let values = &matrix.values;
     rhs[first_wall..]
         .par_iter_mut()
         .enumerate()
         .with_min_len(256)
         .for_each(|(k, r)| {
-            *r = if gravity == D::Vector::ZERO {
-                0.0
-            } else {
-                let (sum_w, b) = sums(first_wall + k);
-                if sum_w > 0.0 { b / sum_w } else { 0.0 }
-            };
+            let w = first_wall + k;
+            *r = 0.0;
+            if gravity != D::Vector::ZERO {
+                let xw = ctx.positions[w];
+                let a = &values[nl.offsets()[w]..nl.offsets()[w + 1]];
+                for (&v, &j) in a.iter().zip(nl.row(w)) {
+                    let j = j as usize;
+                    if j < first_wall {
+                        *r -= v * densities[j] * gravity.dot(xw - ctx.positions[j]);
+                    }
+                }
+            }
         });
     let bad = matrix.values[nl.offsets()[first_wall]..]
         .iter()
