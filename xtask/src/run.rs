@@ -132,12 +132,18 @@ pub fn run_scene(
     }
 }
 
-const CAVITY_HEADER: &str = "scheme,step,t,kinetic_energy,density_error_rms,density_change_rms,density_error_max,mean_pressure,pressure_range,wall_penetrations,solver_iterations,max_div_u,gauge_multiplier,det_f_min,det_f_mean,det_f_max,step_seconds";
+const CAVITY_HEADER: &str = "scheme,step,t,kinetic_energy,density_error_rms,density_change_rms,density_error_max,mean_pressure,pressure_range,wall_penetrations,solver_iterations,max_div_u,gauge_multiplier,det_f_min,det_f_mean,det_f_max,step_seconds,ghia_u_rms,ghia_u_max,ghia_v_rms,ghia_v_max";
 
 fn cavity_row(r: &cavity::CavityRecord) -> String {
     let det = r.det_f.unwrap_or_default();
+    let ghia = r.ghia.map_or(",,,".to_string(), |g| {
+        format!(
+            "{:.5e},{:.5e},{:.5e},{:.5e}",
+            g.u_rms, g.u_max, g.v_rms, g.v_max
+        )
+    });
     format!(
-        "{},{},{:.9e},{:.9e},{:.6e},{:.6e},{:.6e},{:.3e},{:.6e},{},{},{:.3e},{:.3e},{:.9e},{:.9e},{:.9e},{:.4e}",
+        "{},{},{:.9e},{:.9e},{:.6e},{:.6e},{:.6e},{:.3e},{:.6e},{},{},{:.3e},{:.3e},{:.9e},{:.9e},{:.9e},{:.4e},{ghia}",
         r.scheme.name(),
         r.step,
         r.t,
@@ -162,6 +168,9 @@ fn write_file(path: &Path, text: &str) -> anyhow::Result<()> {
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
 }
 
+/// Resolution of the progress bars (fraction of the end time).
+const PROGRESS_TICKS: u64 = 1000;
+
 /// The files of one scheme's run: the CSV time series (one row per record, flushed as it is
 /// produced, so a failing step loses nothing already computed) and the MCAP log (finished on
 /// every path: explicitly by [`SchemeOutput::finish`], or on drop).
@@ -170,6 +179,8 @@ struct SchemeOutput {
     csv_path: PathBuf,
     csv: std::io::BufWriter<std::fs::File>,
     sink: crate::mcap_sink::McapSink,
+    progress: indicatif::ProgressBar,
+    t_end: f64,
 }
 
 impl SchemeOutput {
@@ -195,11 +206,24 @@ impl SchemeOutput {
         meta.insert("scene".into(), serde_json::to_string(scene)?);
         let mcap_path = out.join(format!("{mcap_stem}.mcap"));
         let sink = crate::mcap_sink::McapSink::create(&mcap_path, stride, meta)?;
+        // Drawn on stderr only when it is a terminal (indicatif hides it otherwise, so CI logs
+        // and redirected output stay clean).
+        let progress = indicatif::ProgressBar::new(PROGRESS_TICKS);
+        progress.set_style(
+            indicatif::ProgressStyle::with_template(
+                "  {prefix:<28} [{bar:30}] {msg:<14} {elapsed_precise} (eta {eta})",
+            )
+            .expect("static template")
+            .progress_chars("=> "),
+        );
+        progress.set_prefix(format!("{} {}", scene.case.name(), scheme.name()));
         Ok(Self {
             header,
             csv_path,
             csv,
             sink,
+            progress,
+            t_end: scene.t_end,
         })
     }
 
@@ -217,11 +241,16 @@ impl SchemeOutput {
             })
             .collect();
         self.sink.frame(frame, &serde_json::Value::Object(metrics));
+        let t = frame.time();
+        self.progress
+            .set_position((t / self.t_end * PROGRESS_TICKS as f64).round() as u64);
+        self.progress.set_message(format!("t = {t:.4}"));
         writeln!(self.csv, "{row}")?;
         self.csv.flush()
     }
 
     fn finish(&mut self) -> anyhow::Result<()> {
+        self.progress.finish_and_clear();
         self.sink.finish()
     }
 

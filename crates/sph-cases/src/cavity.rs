@@ -145,6 +145,8 @@ pub struct CavityRecord {
     pub det_f: Option<DetFStats>,
     /// Wall time of the last step.
     pub step_seconds: f64,
+    /// Deviation of the centreline profiles from Ghia et al. at this time (2D, tabulated Re).
+    pub ghia: Option<GhiaDeviation>,
 }
 
 /// The density-error field at one time, on the probe array.
@@ -274,6 +276,7 @@ impl<D: Dim> DensityProbe<D> {
 fn record<D: Dim>(
     sim: &Simulation<D>,
     scheme: SchemeKind,
+    re: f64,
     probe: &mut DensityProbe<D>,
     report: Option<&sph_integrators::StepReport>,
 ) -> CavityRecord {
@@ -309,6 +312,9 @@ fn record<D: Dim>(
         gauge_multiplier: report.map_or(0.0, |r| r.gauge_multiplier),
         det_f: report.and_then(|r| r.det_f),
         step_seconds: report.map_or(0.0, |r| r.seconds),
+        ghia: (D::DIM == 2)
+            .then(|| ghia_deviation(&profiles(sim, re), re))
+            .flatten(),
     }
 }
 
@@ -335,7 +341,7 @@ pub fn run<D: Dim>(
     let mut pending: Vec<f64> = spec.snapshots.clone();
     pending.sort_by(f64::total_cmp);
     let mut pending = pending.into_iter().peekable();
-    let r0 = record(&sim, scheme, &mut probe, None);
+    let r0 = record(&sim, scheme, spec.reynolds, &mut probe, None);
     observe(&r0, &sim)?;
     records.push(r0);
     while pending.peek().is_some_and(|t| *t <= 0.0) {
@@ -353,7 +359,7 @@ pub fn run<D: Dim>(
             .peek()
             .is_some_and(|t| *t <= sim.t + 1e-9 * scene.dt);
         if k % every == 0 || k == steps || snap || report.wall_penetrations > 0 {
-            let r = record(&sim, scheme, &mut probe, Some(&report));
+            let r = record(&sim, scheme, spec.reynolds, &mut probe, Some(&report));
             observe(&r, &sim)?;
             records.push(r);
             while pending
