@@ -15,7 +15,7 @@ fn bench<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     let mut group = c.benchmark_group("integrators");
     group.sample_size(10);
     let scene = drop_scene(case, dx);
-    let s = setup::<D>(&scene);
+    let s = setup::<D>(&scene, sph_cases::reference::References::embedded());
     let n = s.particles.len();
     let mut config = s.config.clone();
     config.diagnostics = false;

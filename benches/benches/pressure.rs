@@ -67,7 +67,7 @@ fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     let mut group = c.benchmark_group("pressure");
     group.sample_size(10);
     let scene = drop_scene(case, dx);
-    let s = setup::<D>(&scene);
+    let s = setup::<D>(&scene, sph_cases::reference::References::embedded());
     let pts = &s.particles.positions;
     let n = pts.len();
     let kernel = QuinticSpline::<D>::new(1.3 * dx);

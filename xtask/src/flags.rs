@@ -94,4 +94,8 @@ pub struct ValidateArgs {
     /// Directory of scene files.
     #[arg(long, default_value = "cases")]
     pub cases: PathBuf,
+    /// Compare against the reference tables in this directory instead of the copy compiled in
+    /// from `cases/reference/` (files it lacks keep the compiled copy).
+    #[arg(long)]
+    pub references: Option<PathBuf>,
 }

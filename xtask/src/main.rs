@@ -26,7 +26,13 @@ fn main() -> std::process::ExitCode {
                     .tag
                     .clone()
                     .unwrap_or_else(|| run::scene_stem(&args.scene));
-                run::run_scene(&scene, &name, args.preset, &args.out)
+                run::run_scene(
+                    &scene,
+                    &name,
+                    args.preset,
+                    sph_cases::reference::References::embedded(),
+                    &args.out,
+                )
             })
             .map(|result| validate::print_checks(&result.checks)),
     };

@@ -179,11 +179,16 @@ mod tests {
         meta.insert("case".to_string(), "elliptical_drop".to_string());
         let mut sink = McapSink::create(&path, 2, meta).unwrap();
         let mut n_particles = 0;
-        let records = sph_cases::drop::run::<D2>(&scene, SchemeKind::Dg, &mut |r, f| {
-            n_particles = f.len();
-            sink.frame(f, &serde_json::json!({ "t": r.t, "p_centre": r.p_centre }));
-            Ok(())
-        })
+        let records = sph_cases::drop::run::<D2>(
+            &scene,
+            SchemeKind::Dg,
+            sph_cases::reference::References::embedded(),
+            &mut |r, f| {
+                n_particles = f.len();
+                sink.frame(f, &serde_json::json!({ "t": r.t, "p_centre": r.p_centre }));
+                Ok(())
+            },
+        )
         .unwrap();
         sink.finish().unwrap();
         assert_eq!(records.len(), 4); // t = 0 and 3 steps

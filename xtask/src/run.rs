@@ -4,11 +4,57 @@ use crate::flags::Preset;
 use anyhow::Context;
 use sph_cases::cavity;
 use sph_cases::drop::{self, DropRecord};
+use sph_cases::reference::References;
 use sph_cases::{CaseError, CaseKind, Check, Scene, prescribed};
 use sph_core::{D2, D3, Dim};
 use sph_integrators::SchemeKind;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+
+/// The reference set: the compiled-in copy of `cases/reference/`, with the files present in
+/// `dir` (if given) read in its place.
+pub fn load_references(dir: Option<&Path>) -> anyhow::Result<References> {
+    let Some(dir) = dir else {
+        return Ok(References::embedded().clone());
+    };
+    anyhow::ensure!(
+        dir.is_dir(),
+        "--references {}: not a directory",
+        dir.display()
+    );
+    let mut replaced = Vec::new();
+    let mut failed = None;
+    let refs = References::parse(|file| {
+        let path = dir.join(file);
+        if !path.exists() {
+            return None;
+        }
+        match std::fs::read_to_string(&path) {
+            Ok(text) => {
+                replaced.push(file.to_string());
+                Some(text)
+            }
+            Err(e) => {
+                failed.get_or_insert(format!("reading {}: {e}", path.display()));
+                None
+            }
+        }
+    })
+    .with_context(|| format!("reference tables from {}", dir.display()))?;
+    if let Some(message) = failed {
+        anyhow::bail!(message);
+    }
+    println!(
+        "references: {} from {} (others compiled in)",
+        if replaced.is_empty() {
+            "none".to_string()
+        } else {
+            replaced.join(", ")
+        },
+        dir.display()
+    );
+    Ok(refs)
+}
 
 /// Reads and validates a scene file.
 pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
@@ -115,6 +161,7 @@ pub fn run_scene(
     scene: &Scene,
     name: &str,
     preset: Preset,
+    refs: &References,
     out: &Path,
 ) -> anyhow::Result<SceneResult> {
     let scene = match preset {
@@ -123,12 +170,12 @@ pub fn run_scene(
     };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     match scene.case {
-        CaseKind::EllipticalDrop => run_drop::<D2>(&scene, out),
-        CaseKind::SpheroidDrop => run_drop::<D3>(&scene, out),
-        CaseKind::PrescribedEllipse => run_prescribed::<D2>(&scene, out),
-        CaseKind::PrescribedEllipsoid => run_prescribed::<D3>(&scene, out),
-        CaseKind::LidDrivenCavity if scene.dim == 2 => run_cavity::<D2>(&scene, name, out),
-        CaseKind::LidDrivenCavity => run_cavity::<D3>(&scene, name, out),
+        CaseKind::EllipticalDrop => run_drop::<D2>(&scene, refs, out),
+        CaseKind::SpheroidDrop => run_drop::<D3>(&scene, refs, out),
+        CaseKind::PrescribedEllipse => run_prescribed::<D2>(&scene, refs, out),
+        CaseKind::PrescribedEllipsoid => run_prescribed::<D3>(&scene, refs, out),
+        CaseKind::LidDrivenCavity if scene.dim == 2 => run_cavity::<D2>(&scene, name, refs, out),
+        CaseKind::LidDrivenCavity => run_cavity::<D3>(&scene, name, refs, out),
     }
 }
 
@@ -271,7 +318,12 @@ impl SchemeOutput {
     }
 }
 
-fn run_cavity<D: Dim>(scene: &Scene, name: &str, out: &Path) -> anyhow::Result<SceneResult> {
+fn run_cavity<D: Dim>(
+    scene: &Scene,
+    name: &str,
+    refs: &References,
+    out: &Path,
+) -> anyhow::Result<SceneResult> {
     let case = scene.case.name();
     let mut result = SceneResult::default();
     for &scheme in &scene.schemes {
@@ -287,7 +339,7 @@ fn run_cavity<D: Dim>(scene: &Scene, name: &str, out: &Path) -> anyhow::Result<S
             10,
         )?;
         let t0 = std::time::Instant::now();
-        let outcome = cavity::run::<D>(scene, scheme, &mut |r, frame| {
+        let outcome = cavity::run::<D>(scene, scheme, refs, &mut |r, frame| {
             output.record(&cavity_row(r), frame)
         });
         output.finish()?;
@@ -404,12 +456,12 @@ fn drop_row(r: &DropRecord, first: &DropRecord) -> String {
     )
 }
 
-fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<SceneResult> {
+fn run_drop<D: Dim>(scene: &Scene, refs: &References, out: &Path) -> anyhow::Result<SceneResult> {
     let case = scene.case.name();
     let mut checks = Vec::new();
     let mut runs = Vec::new();
     let mut infos = Vec::new();
-    let n_particles = drop::setup::<D>(scene).particles.len();
+    let n_particles = drop::setup::<D>(scene, refs).particles.len();
     for &scheme in &scene.schemes {
         let mut output = SchemeOutput::create::<D>(
             out,
@@ -422,7 +474,7 @@ fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<SceneResult> {
         )?;
         let mut first: Option<DropRecord> = None;
         let t0 = std::time::Instant::now();
-        let records = drop::run::<D>(scene, scheme, &mut |r, frame| {
+        let records = drop::run::<D>(scene, scheme, refs, &mut |r, frame| {
             let f = first.get_or_insert_with(|| r.clone());
             output.record(&drop_row(r, f), frame)
         });
@@ -486,9 +538,13 @@ fn run_drop<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<SceneResult> {
     })
 }
 
-fn run_prescribed<D: Dim>(scene: &Scene, out: &Path) -> anyhow::Result<SceneResult> {
+fn run_prescribed<D: Dim>(
+    scene: &Scene,
+    refs: &References,
+    out: &Path,
+) -> anyhow::Result<SceneResult> {
     let t0 = std::time::Instant::now();
-    let (runs, checks) = prescribed::run_scene::<D>(scene);
+    let (runs, checks) = prescribed::run_scene::<D>(scene, refs);
     let wall_s = t0.elapsed().as_secs_f64();
     let mut infos = Vec::new();
     for run in &runs {

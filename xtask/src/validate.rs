@@ -10,6 +10,7 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     let t0 = Instant::now();
     let mut checks: Vec<(Check, f64)> = Vec::new();
     let mut runs = Vec::new();
+    let refs = crate::run::load_references(args.references.as_deref())?;
     let wants = |name: &str| args.case.as_deref().is_none_or(|c| name.contains(c));
     if wants("kernels") || wants("operators") || wants("foundation") {
         let t = Instant::now();
@@ -34,7 +35,7 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
         println!("{} ({:?} preset)", path.display(), args.preset);
         let t = Instant::now();
         let name = crate::run::scene_stem(&path);
-        let result = crate::run::run_scene(&scene, &name, args.preset, &args.out)?;
+        let result = crate::run::run_scene(&scene, &name, args.preset, &refs, &args.out)?;
         let wall = t.elapsed().as_secs_f64();
         checks.extend(result.checks.into_iter().map(|c| (c, wall)));
         runs.extend(result.runs);
@@ -57,6 +58,7 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     let json = serde_json::json!({
         "preset": format!("{:?}", args.preset).to_lowercase(),
         "git": git_revision(),
+        "references": args.references.as_ref().map_or("compiled-in cases/reference".to_string(), |d| d.display().to_string()),
         "passed": passed,
         "checks": checks.iter().map(|(c, wall_s)| serde_json::json!({
             "case": c.case, "check": c.name, "value": c.value, "reference": c.reference,

@@ -17,6 +17,7 @@
 //!   compared with `cases/reference/ghia_*.csv` (the Re 400 point v(0.9063) is excluded: a
 //!   suspected misprint; points on the walls are excluded: they are boundary conditions).
 
+use crate::reference::References;
 use crate::{CaseError, Check, Scene};
 use sph_core::{Dim, ParticleSet, VectorOps};
 use sph_integrators::{
@@ -26,9 +27,6 @@ use sph_integrators::{
 use sph_kernels::Kernel;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
 use sph_operators::{SphContext, density_at_points};
-
-const GHIA_U: &str = include_str!("../../../cases/reference/ghia_u_vertical.csv");
-const GHIA_V: &str = include_str!("../../../cases/reference/ghia_v_horizontal.csv");
 
 /// The cavity's initial state.
 pub struct CavitySetup<D: Dim> {
@@ -277,6 +275,7 @@ fn record<D: Dim>(
     sim: &Simulation<D>,
     scheme: SchemeKind,
     re: f64,
+    refs: &References,
     probe: &mut DensityProbe<D>,
     report: Option<&sph_integrators::StepReport>,
 ) -> CavityRecord {
@@ -313,7 +312,7 @@ fn record<D: Dim>(
         det_f: report.and_then(|r| r.det_f),
         step_seconds: report.map_or(0.0, |r| r.seconds),
         ghia: (D::DIM == 2)
-            .then(|| ghia_deviation(&profiles(sim, re), re))
+            .then(|| ghia_deviation(&profiles(sim, re, refs), re))
             .flatten(),
     }
 }
@@ -324,6 +323,7 @@ fn record<D: Dim>(
 pub fn run<D: Dim>(
     scene: &Scene,
     scheme: SchemeKind,
+    refs: &References,
     observe: &mut dyn FnMut(&CavityRecord, &dyn Frame) -> std::io::Result<()>,
 ) -> Result<CavityRun, CaseError> {
     let spec = scene.cavity.clone().expect("validated cavity scene");
@@ -341,7 +341,7 @@ pub fn run<D: Dim>(
     let mut pending: Vec<f64> = spec.snapshots.clone();
     pending.sort_by(f64::total_cmp);
     let mut pending = pending.into_iter().peekable();
-    let r0 = record(&sim, scheme, spec.reynolds, &mut probe, None);
+    let r0 = record(&sim, scheme, spec.reynolds, refs, &mut probe, None);
     observe(&r0, &sim)?;
     records.push(r0);
     while pending.peek().is_some_and(|t| *t <= 0.0) {
@@ -359,7 +359,7 @@ pub fn run<D: Dim>(
             .peek()
             .is_some_and(|t| *t <= sim.t + 1e-9 * scene.dt);
         if k % every == 0 || k == steps || snap || report.wall_penetrations > 0 {
-            let r = record(&sim, scheme, spec.reynolds, &mut probe, Some(&report));
+            let r = record(&sim, scheme, spec.reynolds, refs, &mut probe, Some(&report));
             observe(&r, &sim)?;
             records.push(r);
             while pending
@@ -374,7 +374,7 @@ pub fn run<D: Dim>(
     if snapshots.last().is_none_or(|s| s.t < sim.t) {
         snapshots.push(probe.snapshot(sim.t, rho0));
     }
-    let profiles = profiles(&sim, spec.reynolds);
+    let profiles = profiles(&sim, spec.reynolds, refs);
     let ghia = (D::DIM == 2)
         .then(|| ghia_deviation(&profiles, spec.reynolds))
         .flatten();
@@ -408,30 +408,10 @@ pub fn steady_time(records: &[CavityRecord], window: f64, tol: f64) -> Option<f6
     steady_since
 }
 
-/// Ghia's table `text` as `(coordinate, value at re)` rows; the values are NaN when `re` is not
-/// tabulated (the coordinates are the same for every Re).
-fn ghia_table(text: &str, re: f64) -> Vec<(f64, f64)> {
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
-    let col = header
-        .iter()
-        .position(|h| h.strip_prefix("Re").and_then(|v| v.parse::<f64>().ok()) == Some(re));
-    lines
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| {
-            let f: Vec<f64> = l
-                .split(',')
-                .map(|v| v.trim().parse().unwrap_or(f64::NAN))
-                .collect();
-            (f[0], col.map_or(f64::NAN, |c| f[c]))
-        })
-        .collect()
-}
-
 /// Centreline profiles at Ghia's coordinates (the mid-plane `z = 0.5` in 3D), normalised by
 /// the lid speed: Shepard interpolation over the fluid particles and the wall particles'
 /// no-slip velocity `2u_wall − ũ_w` (the field a mirror ghost would carry).
-pub fn profiles<D: Dim>(sim: &Simulation<D>, re: f64) -> Profiles {
+pub fn profiles<D: Dim>(sim: &Simulation<D>, re: f64, refs: &References) -> Profiles {
     let p = &sim.particles;
     let nf = sim.fluid_len();
     let walls = sim.walls().expect("cavity has walls");
@@ -455,8 +435,8 @@ pub fn profiles<D: Dim>(sim: &Simulation<D>, re: f64) -> Profiles {
         .map(|v| v.get(0).abs())
         .fold(0.0, f64::max);
     let at = |a: f64, b: f64| D::Vector::from_fn(|k| [a, b, 0.5][k]);
-    let rows_u = ghia_table(GHIA_U, re);
-    let rows_v = ghia_table(GHIA_V, re);
+    let rows_u = refs.ghia_u_vertical(re);
+    let rows_v = refs.ghia_v_horizontal(re);
     let points: Vec<D::Vector> = rows_u
         .iter()
         .map(|&(y, _)| at(0.5, y))

@@ -6,7 +6,7 @@
 //! Reference: the exact solution of [`DropSolution`] (Monaghan's ansatz, `cases/reference`).
 
 use crate::measure::{hull_measure, second_moments};
-use crate::reference::{DropSolution, DropState};
+use crate::reference::{DropSolution, DropState, References};
 use crate::{CaseError, Check, Scene};
 use sph_core::{Dim, ParticleSet, VectorOps};
 use sph_integrators::{Frame, Integrator, Scheme, SchemeKind, SimConfig, Simulation, StepReport};
@@ -49,7 +49,7 @@ pub struct DropSetup<D: Dim> {
 }
 
 /// Builds the drop of `scene` (the scene's `dim` must be `D::DIM`).
-pub fn setup<D: Dim>(scene: &Scene) -> DropSetup<D> {
+pub fn setup<D: Dim>(scene: &Scene, refs: &References) -> DropSetup<D> {
     let semi = D::Vector::from_fn(|k| if k == 0 { 1.0 } else { 0.7 });
     let positions = crate::geometry::ellipsoid_lattice::<D>(semi, scene.dx);
     let rho0 = 1.0;
@@ -73,11 +73,7 @@ pub fn setup<D: Dim>(scene: &Scene) -> DropSetup<D> {
         .expect("lattice contains the origin");
     let mut config = scene.sim_config();
     config.rho0 = rho0;
-    let exact = if D::DIM == 2 {
-        DropSolution::elliptical_2d()
-    } else {
-        DropSolution::spheroid_3d()
-    };
+    let exact = refs.drop(D::DIM).clone();
     DropSetup {
         particles,
         config,
@@ -116,9 +112,10 @@ fn record<D: Dim>(
 pub fn run<D: Dim>(
     scene: &Scene,
     scheme: SchemeKind,
+    refs: &References,
     observe: &mut dyn FnMut(&DropRecord, &dyn Frame) -> std::io::Result<()>,
 ) -> Result<Vec<DropRecord>, CaseError> {
-    let s = setup::<D>(scene);
+    let s = setup::<D>(scene, refs);
     let mut sim = Simulation::new(s.particles, s.config)?;
     let mut integrator = Scheme::new(scheme);
     let mut records = Vec::new();

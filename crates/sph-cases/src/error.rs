@@ -23,6 +23,16 @@ pub enum CaseError {
         /// What is wrong.
         message: String,
     },
+    /// A reference table is malformed.
+    #[error("reference {file}, line {line}: {message}")]
+    Reference {
+        /// File name (in `cases/reference/`).
+        file: String,
+        /// 1-based line (0: the whole file).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
     /// The initial particle set is invalid.
     #[error("case setup: {0}")]
     Setup(#[from] CoreError),

@@ -5,6 +5,7 @@
 //! field). Effects: none (no pressure, no neighbours).
 
 use crate::measure::{hull_measure, second_moments};
+use crate::reference::References;
 use crate::{Check, Scene};
 use sph_core::{Dim, MatrixOps, VectorOps};
 
@@ -140,7 +141,7 @@ pub fn paper_setup<D: Dim>() -> (D::Vector, D::Matrix) {
 
 /// Runs both updates for a prescribed-field scene and returns the runs and their checks
 /// against the exact slopes (0.5 % tolerance, the bar) and the reference table.
-pub fn run_scene<D: Dim>(scene: &Scene) -> (Vec<PrescribedRun>, Vec<Check>) {
+pub fn run_scene<D: Dim>(scene: &Scene, refs: &References) -> (Vec<PrescribedRun>, Vec<Check>) {
     let (semi, g) = paper_setup::<D>();
     let steps = (scene.t_end / scene.dt + 1e-9).floor() as usize;
     let case = scene.case.name();
@@ -168,7 +169,7 @@ pub fn run_scene<D: Dim>(scene: &Scene) -> (Vec<PrescribedRun>, Vec<Check>) {
             tol,
             "ln det F/Δt, exact",
         ));
-        if let Some(tab) = crate::reference::volume_slope(table_case, update.name(), scene.dt) {
+        if let Some(tab) = refs.volume_slope(table_case, update.name(), scene.dt) {
             checks.push(Check::new(
                 case,
                 format!("{label} exact slope vs table"),

@@ -1,5 +1,8 @@
 //! Reference data, embedded at compile time from `cases/reference/` (see its README for
-//! sources and derivations). Nothing is read from disk at run time.
+//! sources and derivations). Nothing is read from disk at run time; a caller may build a
+//! [`References`] set from other texts.
+
+use crate::CaseError;
 
 /// Exact drop solution at one time.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -22,40 +25,27 @@ pub struct DropSolution {
     rows: Vec<DropState>,
 }
 
-const DROP_2D: &str = include_str!("../../../cases/reference/elliptical_drop_2d.csv");
-const DROP_3D: &str = include_str!("../../../cases/reference/ellipsoid_3d.csv");
-
 impl DropSolution {
-    /// The exact 2D elliptical drop (Monaghan 1994 ansatz; paper Eq. 29 initial state).
-    pub fn elliptical_2d() -> Self {
-        Self::parse(DROP_2D)
-    }
-
-    /// The exact 3D spheroid (paper Eq. 30 initial state).
-    pub fn spheroid_3d() -> Self {
-        Self::parse(DROP_3D)
-    }
-
-    fn parse(text: &str) -> Self {
-        let rows = text
-            .lines()
-            .skip(1)
-            .filter(|l| !l.trim().is_empty())
-            .map(|l| {
-                let v: Vec<f64> = l
-                    .split(',')
-                    .map(|x| x.trim().parse().expect("embedded reference CSV"))
-                    .collect();
-                DropState {
-                    t: v[0],
-                    a: v[1],
-                    b: v[2],
-                    strain: v[3],
-                    p_c: v[4],
-                }
+    /// Parses a drop table (`t,a,b,strain,p_c` with a header line); `file` names it in errors.
+    pub fn parse(file: &str, text: &str) -> Result<Self, CaseError> {
+        let rows: Vec<DropState> = numeric_rows(file, text, 5)?
+            .into_iter()
+            .map(|v| DropState {
+                t: v[0],
+                a: v[1],
+                b: v[2],
+                strain: v[3],
+                p_c: v[4],
             })
             .collect();
-        Self { rows }
+        if rows.len() < 2 || rows.windows(2).any(|w| w[1].t <= w[0].t) {
+            return Err(CaseError::Reference {
+                file: file.to_string(),
+                line: 0,
+                message: "needs at least two rows with increasing t".into(),
+            });
+        }
+        Ok(Self { rows })
     }
 
     /// Last tabulated time (t at which b = 1).
@@ -83,17 +73,216 @@ impl DropSolution {
     }
 }
 
-const SLOPES: &str = include_str!("../../../cases/reference/volume_slopes.csv");
+/// Rows of numbers after a header line; every row must have at least `columns` numeric fields.
+fn numeric_rows(file: &str, text: &str, columns: usize) -> Result<Vec<Vec<f64>>, CaseError> {
+    text.lines()
+        .enumerate()
+        .skip(1)
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(k, l)| {
+            let v = l
+                .split(',')
+                .take(columns)
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<Result<Vec<f64>, _>>()
+                .map_err(|e| CaseError::Reference {
+                    file: file.to_string(),
+                    line: k + 1,
+                    message: format!("{e} in {l:?}"),
+                })?;
+            if v.len() < columns {
+                return Err(CaseError::Reference {
+                    file: file.to_string(),
+                    line: k + 1,
+                    message: format!("expected {columns} numeric columns, found {}", v.len()),
+                });
+            }
+            Ok(v)
+        })
+        .collect()
+}
 
-/// The tabulated exact Section 3 slope `ln(det F)/Δt` for `case` (`2d_sec3`, `3d_sec3`,
-/// `3d_sec5_initial`), `scheme` (`euler`, `pc`) and `dt`.
-pub fn volume_slope(case: &str, scheme: &str, dt: f64) -> Option<f64> {
-    SLOPES.lines().skip(1).find_map(|l| {
-        let f: Vec<&str> = l.split(',').collect();
-        let row_dt: f64 = f.get(3)?.parse().ok()?;
-        (f[0] == case && f[2] == scheme && (row_dt - dt).abs() < 1e-12)
-            .then(|| f[4].parse().ok())?
-    })
+/// One row of `volume_slopes.csv`.
+#[derive(Clone, Debug, PartialEq)]
+struct SlopeRow {
+    case: String,
+    scheme: String,
+    dt: f64,
+    slope: f64,
+}
+
+/// A Ghia et al. (1982) centreline table: coordinates and one column per Reynolds number.
+#[derive(Clone, Debug, PartialEq)]
+struct GhiaTable {
+    reynolds: Vec<f64>,
+    rows: Vec<(f64, Vec<f64>)>,
+}
+
+impl GhiaTable {
+    fn parse(file: &str, text: &str) -> Result<Self, CaseError> {
+        let header = text.lines().next().unwrap_or_default();
+        let reynolds = header
+            .split(',')
+            .skip(1)
+            .map(|h| {
+                h.trim()
+                    .strip_prefix("Re")
+                    .and_then(|v| v.parse::<f64>().ok())
+                    .ok_or_else(|| CaseError::Reference {
+                        file: file.to_string(),
+                        line: 1,
+                        message: format!("column {h:?} is not of the form Re<number>"),
+                    })
+            })
+            .collect::<Result<Vec<f64>, _>>()?;
+        let rows = numeric_rows(file, text, reynolds.len() + 1)?
+            .into_iter()
+            .map(|v| (v[0], v[1..].to_vec()))
+            .collect();
+        Ok(Self { reynolds, rows })
+    }
+
+    /// `(coordinate, value at re)`; values are NaN when `re` is not tabulated.
+    fn at(&self, re: f64) -> Vec<(f64, f64)> {
+        let col = self.reynolds.iter().position(|r| *r == re);
+        self.rows
+            .iter()
+            .map(|(c, v)| (*c, col.map_or(f64::NAN, |k| v[k])))
+            .collect()
+    }
+}
+
+/// Every reference table a validation run compares against. [`References::embedded`] is the
+/// copy in `cases/reference/` compiled into the library; [`References::parse`] builds a set
+/// from other texts (the xtask's `--references DIR`, or a test that perturbs a value to check
+/// that the perturbation makes a run fail).
+#[derive(Clone, Debug)]
+pub struct References {
+    drop_2d: DropSolution,
+    drop_3d: DropSolution,
+    slopes: Vec<SlopeRow>,
+    ghia_u: GhiaTable,
+    ghia_v: GhiaTable,
+}
+
+const EMBEDDED: [(&str, &str); 5] = [
+    (
+        "elliptical_drop_2d.csv",
+        include_str!("../../../cases/reference/elliptical_drop_2d.csv"),
+    ),
+    (
+        "ellipsoid_3d.csv",
+        include_str!("../../../cases/reference/ellipsoid_3d.csv"),
+    ),
+    (
+        "volume_slopes.csv",
+        include_str!("../../../cases/reference/volume_slopes.csv"),
+    ),
+    (
+        "ghia_u_vertical.csv",
+        include_str!("../../../cases/reference/ghia_u_vertical.csv"),
+    ),
+    (
+        "ghia_v_horizontal.csv",
+        include_str!("../../../cases/reference/ghia_v_horizontal.csv"),
+    ),
+];
+
+impl References {
+    /// The file names of the reference set (in `cases/reference/`).
+    pub const FILES: [&'static str; 5] = [
+        EMBEDDED[0].0,
+        EMBEDDED[1].0,
+        EMBEDDED[2].0,
+        EMBEDDED[3].0,
+        EMBEDDED[4].0,
+    ];
+
+    /// The reference set compiled into the library from `cases/reference/`.
+    pub fn embedded() -> &'static References {
+        static SET: std::sync::LazyLock<References> = std::sync::LazyLock::new(|| {
+            References::parse(|_| None).expect("embedded reference tables parse (tested)")
+        });
+        &SET
+    }
+
+    /// Builds a reference set from the texts `text(file)` returns for the names in
+    /// [`References::FILES`]; a file for which it returns `None` keeps its embedded copy.
+    pub fn parse(mut text: impl FnMut(&str) -> Option<String>) -> Result<Self, CaseError> {
+        let mut get = |k: usize| {
+            let (file, embedded) = EMBEDDED[k];
+            (file, text(file).unwrap_or_else(|| embedded.to_string()))
+        };
+        let (f, t) = get(0);
+        let drop_2d = DropSolution::parse(f, &t)?;
+        let (f, t) = get(1);
+        let drop_3d = DropSolution::parse(f, &t)?;
+        let (f, t) = get(2);
+        let slopes = t
+            .lines()
+            .enumerate()
+            .skip(1)
+            .filter(|(_, l)| !l.trim().is_empty())
+            .map(|(k, l)| {
+                let c: Vec<&str> = l.split(',').collect();
+                let num = |i: usize| {
+                    c.get(i)
+                        .and_then(|v| v.trim().parse::<f64>().ok())
+                        .ok_or_else(|| CaseError::Reference {
+                            file: f.to_string(),
+                            line: k + 1,
+                            message: format!("column {} is not a number in {l:?}", i + 1),
+                        })
+                };
+                Ok(SlopeRow {
+                    case: c[0].trim().to_string(),
+                    scheme: c.get(2).map_or("", |s| s.trim()).to_string(),
+                    dt: num(3)?,
+                    slope: num(4)?,
+                })
+            })
+            .collect::<Result<Vec<_>, CaseError>>()?;
+        let (f, t) = get(3);
+        let ghia_u = GhiaTable::parse(f, &t)?;
+        let (f, t) = get(4);
+        let ghia_v = GhiaTable::parse(f, &t)?;
+        Ok(Self {
+            drop_2d,
+            drop_3d,
+            slopes,
+            ghia_u,
+            ghia_v,
+        })
+    }
+
+    /// The exact drop solution in `dim` dimensions: the 2D elliptical drop (Monaghan 1994
+    /// ansatz; paper Eq. 29 initial state) or the 3D spheroid (paper Eq. 30).
+    pub fn drop(&self, dim: usize) -> &DropSolution {
+        if dim == 2 {
+            &self.drop_2d
+        } else {
+            &self.drop_3d
+        }
+    }
+
+    /// The tabulated exact Section 3 slope `ln(det F)/Δt` for `case` (`2d_sec3`, `3d_sec3`,
+    /// `3d_sec5_initial`), `scheme` (`euler`, `pc`) and `dt`.
+    pub fn volume_slope(&self, case: &str, scheme: &str, dt: f64) -> Option<f64> {
+        self.slopes
+            .iter()
+            .find(|r| r.case == case && r.scheme == scheme && (r.dt - dt).abs() < 1e-12)
+            .map(|r| r.slope)
+    }
+
+    /// Ghia et al.'s `u(0.5, y)` at `re` as `(y, u)` rows (NaN values if `re` is not tabulated).
+    pub fn ghia_u_vertical(&self, re: f64) -> Vec<(f64, f64)> {
+        self.ghia_u.at(re)
+    }
+
+    /// Ghia et al.'s `v(x, 0.5)` at `re` as `(x, v)` rows (NaN values if `re` is not tabulated).
+    pub fn ghia_v_horizontal(&self, re: f64) -> Vec<(f64, f64)> {
+        self.ghia_v.at(re)
+    }
 }
 
 #[cfg(test)]
@@ -103,26 +292,81 @@ mod tests {
     #[test]
     fn key_values_match_the_tables() {
         // drop_key_values.csv, quoted: 2D t = 0.003 a = 0.735723639507, p_c = 3489.18692277.
-        let d2 = DropSolution::elliptical_2d();
+        let refs = References::embedded();
+        let d2 = refs.drop(2);
         let s = d2.at(0.003);
         assert!(
             (s.a - 0.735723639507).abs() < 1e-6 && (s.p_c / 3489.18692277 - 1.0).abs() < 1e-5,
             "{s:?}"
         );
         assert!((d2.t_max() - 0.00349389062342).abs() < 1e-12);
-        let d3 = DropSolution::spheroid_3d();
+        let d3 = refs.drop(3);
         let s = d3.at(0.003);
         assert!(
             (s.b - 0.826275698272).abs() < 1e-6 && (s.p_c / 2238.31895809 - 1.0).abs() < 1e-5,
             "{s:?}"
         );
         assert_eq!(
-            volume_slope("2d_sec3", "euler", 1.25e-4),
+            refs.volume_slope("2d_sec3", "euler", 1.25e-4),
             Some(-1.250097666)
         );
         assert_eq!(
-            volume_slope("3d_sec3", "pc", 1.25e-4),
+            refs.volume_slope("3d_sec3", "pc", 1.25e-4),
             Some(-0.001925773614)
         );
+    }
+
+    #[test]
+    fn a_perturbed_ghia_value_moves_the_deviation_by_exactly_the_perturbation() {
+        use crate::cavity::{Profiles, ghia_deviation};
+        let embedded = References::embedded();
+        let original = EMBEDDED[3].1;
+        let row = "0.5000,-0.20581,"; // u(0.5, 0.5) at Re 100, then Re 400 onwards
+        assert!(original.contains(row), "reference row moved");
+        let text = original.replace(row, "0.5000,-0.21581,");
+        let perturbed =
+            References::parse(|f| (f == "ghia_u_vertical.csv").then(|| text.clone())).unwrap();
+        let profiles = |r: &References| Profiles {
+            u_vertical: r
+                .ghia_u_vertical(100.0)
+                .into_iter()
+                .map(|(y, g)| (y, g, g))
+                .collect(),
+            v_horizontal: r
+                .ghia_v_horizontal(100.0)
+                .into_iter()
+                .map(|(x, g)| (x, g, g))
+                .collect(),
+        };
+        // Our profile equals the embedded table; deviation against the perturbed table.
+        let mut ours = profiles(embedded);
+        let theirs = profiles(&perturbed);
+        for (mine, reference) in ours.u_vertical.iter_mut().zip(&theirs.u_vertical) {
+            mine.2 = reference.2;
+        }
+        let d = ghia_deviation(&ours, 100.0).unwrap();
+        assert!((d.u_max - 0.01).abs() < 1e-12, "{d:?}");
+        assert_eq!(d.v_max, 0.0);
+        assert_eq!(
+            ghia_deviation(&profiles(embedded), 100.0).unwrap().u_max,
+            0.0
+        );
+    }
+
+    #[test]
+    fn malformed_tables_name_file_and_line() {
+        let bad = EMBEDDED[4].1.replacen("Re100", "R100", 1);
+        let e = References::parse(|f| (f == "ghia_v_horizontal.csv").then(|| bad.clone()))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("ghia_v_horizontal.csv, line 1") && e.contains("R100"),
+            "{e}"
+        );
+        let short = "t,a,b,A,p_c\n0,1,0.7,100\n";
+        let e = References::parse(|f| (f == "ellipsoid_3d.csv").then(|| short.to_string()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("ellipsoid_3d.csv, line 2"), "{e}");
     }
 }

@@ -75,7 +75,13 @@ fn short_run_holds<D: Dim>(t_end: f64) {
     s.t_end = t_end;
     s.cavity.as_mut().unwrap().check_ghia = Some(false);
     for kind in SchemeKind::ALL {
-        let run = cavity::run::<D>(&s, kind, &mut |_, _| Ok(())).unwrap();
+        let run = cavity::run::<D>(
+            &s,
+            kind,
+            sph_cases::reference::References::embedded(),
+            &mut |_, _| Ok(()),
+        )
+        .unwrap();
         let last = run.records.last().unwrap();
         assert!(last.kinetic_energy.is_finite() && last.kinetic_energy > 0.0);
         for c in cavity::checks("t", &s, kind, &run) {
@@ -113,7 +119,13 @@ fn dg_density_error_below_euler_and_pc() {
     let mut s = scene(2, 0.05, 0.01, 400.0, true);
     s.t_end = 2.0;
     let rms = |kind| {
-        let run = cavity::run::<D2>(&s, kind, &mut |_, _| Ok(())).unwrap();
+        let run = cavity::run::<D2>(
+            &s,
+            kind,
+            sph_cases::reference::References::embedded(),
+            &mut |_, _| Ok(()),
+        )
+        .unwrap();
         run.records.last().unwrap().density_error_rms
     };
     let (e, p, d) = (

@@ -10,7 +10,15 @@ fn scene(dt: f64) -> Scene {
 }
 
 fn dv(dt: f64, scheme: SchemeKind) -> f64 {
-    volume_change(&run::<D2>(&scene(dt), scheme, &mut |_, _| Ok(())).unwrap())
+    volume_change(
+        &run::<D2>(
+            &scene(dt),
+            scheme,
+            sph_cases::reference::References::embedded(),
+            &mut |_, _| Ok(()),
+        )
+        .unwrap(),
+    )
 }
 
 #[test]

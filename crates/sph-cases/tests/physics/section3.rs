@@ -3,7 +3,7 @@
 
 use sph_cases::geometry::ellipsoid_lattice;
 use sph_cases::prescribed::{PositionUpdate, paper_setup, run_prescribed};
-use sph_cases::reference::volume_slope;
+use sph_cases::reference::References;
 use sph_core::{D2, D3, Dim};
 
 fn check<D: Dim>(table_case: &str) {
@@ -12,7 +12,9 @@ fn check<D: Dim>(table_case: &str) {
     for update in [PositionUpdate::Euler, PositionUpdate::PredictorCorrector] {
         let pts = ellipsoid_lattice::<D>(semi, 0.05);
         let run = run_prescribed::<D>(pts, g, dt, 24, update);
-        let table = volume_slope(table_case, update.name(), dt).unwrap();
+        let table = References::embedded()
+            .volume_slope(table_case, update.name(), dt)
+            .unwrap();
         println!(
             "{} {:?}: hull {:.9e}, moments {:.9e}, exact {:.9e}, table {table:.9e}",
             D::NAME,

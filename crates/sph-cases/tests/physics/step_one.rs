@@ -16,7 +16,7 @@ fn scene(case: CaseKind, dx: f64, dt: f64, hessian: DgHessianChoice) -> Scene {
 
 /// (mean bulk volume change, central pressure, max |∇·u|) after one step.
 fn one_step<D: Dim>(scene: &Scene, scheme: SchemeKind) -> (f64, f64, f64) {
-    let s = setup::<D>(scene);
+    let s = setup::<D>(scene, sph_cases::reference::References::embedded());
     let before = s.particles.positions.clone();
     let mut sim = Simulation::new(s.particles, s.config).unwrap();
     let report = Scheme::new(scheme).step(&mut sim, scene.dt).unwrap();
@@ -51,7 +51,7 @@ fn step_one_bulk_volume_and_pressure_2d() {
 
 /// Bulk volume change of one step, measured ≥ `margin` lattice spacings inside the surface.
 fn one_step_bulk<D: Dim>(scene: &Scene, scheme: SchemeKind, margin: f64) -> f64 {
-    let s = setup::<D>(scene);
+    let s = setup::<D>(scene, sph_cases::reference::References::embedded());
     let before = s.particles.positions.clone();
     let mut sim = Simulation::new(s.particles, s.config).unwrap();
     Scheme::new(scheme).step(&mut sim, scene.dt).unwrap();
