@@ -19,6 +19,16 @@ pub enum Command {
     Validate(ValidateArgs),
     /// Run one scene file and write its time series as CSV.
     Run(Box<RunArgs>),
+    /// Rebuild report.md and its figures from the CSV files of an output directory.
+    Report(ReportArgs),
+}
+
+/// Flags of `cargo xtask report`.
+#[derive(Debug, clap::Args)]
+pub struct ReportArgs {
+    /// Directory holding the CSV files (and summary.json) of a validation or run.
+    #[arg(long, default_value = "target/validation")]
+    pub out: PathBuf,
 }
 
 /// Flags of `cargo xtask run`.

@@ -5,11 +5,14 @@
 //!   if any check fails.
 //! * `cargo xtask run SCENE.toml` runs one scene and writes its time series as CSV under
 //!   `target/runs/`.
+//! * `cargo xtask report --out DIR` rebuilds `DIR/report.md` and its SVG figures from the CSV
+//!   files there.
 //!
 //! xtask owns all file I/O and terminal output; the library crates do none.
 
 mod flags;
 mod mcap_sink;
+mod report;
 mod run;
 mod validate;
 
@@ -19,6 +22,10 @@ fn main() -> std::process::ExitCode {
     let cli = flags::Cli::parse();
     let result = match cli.command {
         flags::Command::Validate(args) => validate::run(&args),
+        flags::Command::Report(args) => report::write(&args.out).map(|path| {
+            println!("report: {}", path.display());
+            true
+        }),
         flags::Command::Run(args) => run::load_scene(&args.scene)
             .and_then(|scene| run::apply_overrides(scene, &args))
             .and_then(|scene| {

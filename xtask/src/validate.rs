@@ -69,6 +69,8 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     std::fs::write(&summary, serde_json::to_string_pretty(&json)?)
         .with_context(|| format!("writing {}", summary.display()))?;
     println!("summary: {}", summary.display());
+    let report = crate::report::write(&args.out)?;
+    println!("report: {}", report.display());
     Ok(passed)
 }
 
