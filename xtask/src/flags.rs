@@ -108,4 +108,9 @@ pub struct ValidateArgs {
     /// from `cases/reference/` (files it lacks keep the compiled copy).
     #[arg(long)]
     pub references: Option<PathBuf>,
+    /// Instead of the validation cases, run the accuracy-against-cost sweep (every scheme over
+    /// three resolutions, both kernels, two solvers; a Δt refinement) and write sweep.md,
+    /// sweep.csv and the error-against-wall-time plots. Takes tens of minutes.
+    #[arg(long)]
+    pub sweep: bool,
 }

@@ -5,6 +5,7 @@
 //!   if any check fails.
 //! * `cargo xtask run SCENE.toml` runs one scene and writes its time series as CSV under
 //!   `target/runs/`.
+//! * `cargo xtask validate --sweep` runs the accuracy-against-cost sweep ([`sweep`]).
 //! * `cargo xtask report --out DIR` rebuilds `DIR/report.md` and its SVG figures from the CSV
 //!   files there.
 //!
@@ -14,6 +15,7 @@ mod flags;
 mod mcap_sink;
 mod report;
 mod run;
+mod sweep;
 mod validate;
 
 use clap::Parser;

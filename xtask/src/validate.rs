@@ -11,6 +11,10 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     let mut checks: Vec<(Check, f64)> = Vec::new();
     let mut runs = Vec::new();
     let refs = crate::run::load_references(args.references.as_deref())?;
+    if args.sweep {
+        crate::sweep::run(&args.cases, &args.out, &refs)?;
+        return Ok(true);
+    }
     let wants = |name: &str| args.case.as_deref().is_none_or(|c| name.contains(c));
     if wants("kernels") || wants("operators") || wants("foundation") {
         let t = Instant::now();
