@@ -78,6 +78,16 @@ pub struct RunArgs {
     /// Output file prefix (default: the scene file's stem).
     #[arg(long)]
     pub tag: Option<String>,
+    /// Cavity runs: write `<out>/<prefix>_<scheme>.checkpoint.json` every N steps (and at the end).
+    #[arg(long, value_name = "N")]
+    pub checkpoint_every: Option<usize>,
+    /// Cavity runs: continue from `<out>/<prefix>_<scheme>.checkpoint.json` where one exists,
+    /// appending to the CSV time series (runs longer than a session).
+    #[arg(long)]
+    pub resume: bool,
+    /// Write every N-th particle frame to MCAP (default: every drop step, ~40 cavity frames).
+    #[arg(long, value_name = "N")]
+    pub frame_stride: Option<usize>,
 }
 
 /// How much to run.
@@ -113,4 +123,7 @@ pub struct ValidateArgs {
     /// sweep.csv and the error-against-wall-time plots. Takes tens of minutes.
     #[arg(long)]
     pub sweep: bool,
+    /// Write every N-th particle frame to MCAP (default: every drop step, ~40 cavity frames).
+    #[arg(long, value_name = "N")]
+    pub frame_stride: Option<usize>,
 }

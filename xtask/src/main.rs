@@ -35,12 +35,18 @@ fn main() -> std::process::ExitCode {
                     .tag
                     .clone()
                     .unwrap_or_else(|| run::scene_stem(&args.scene));
+                let options = run::RunOptions {
+                    checkpoint_every: args.checkpoint_every,
+                    resume: args.resume,
+                    frame_stride: args.frame_stride,
+                };
                 run::run_scene(
                     &scene,
                     &name,
                     args.preset,
                     sph_cases::reference::References::embedded(),
                     &args.out,
+                    &options,
                 )
             })
             .map(|result| validate::print_checks(&result.checks)),

@@ -146,6 +146,17 @@ pub struct RunInfo {
     pub solver_iters_mean: f64,
 }
 
+/// Output and continuation options of a run.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Cavity: checkpoint every this many steps.
+    pub checkpoint_every: Option<usize>,
+    /// Cavity: resume from the checkpoint file if it exists.
+    pub resume: bool,
+    /// MCAP particle-frame stride (records between frames).
+    pub frame_stride: Option<usize>,
+}
+
 /// Checks and runs of one scene.
 #[derive(Default)]
 pub struct SceneResult {
@@ -163,19 +174,29 @@ pub fn run_scene(
     preset: Preset,
     refs: &References,
     out: &Path,
+    options: &RunOptions,
 ) -> anyhow::Result<SceneResult> {
     let scene = match preset {
         Preset::Quick => scene.quick(),
         Preset::Paper => scene.clone(),
     };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    if !matches!(scene.case, CaseKind::LidDrivenCavity)
+        && (options.resume || options.checkpoint_every.is_some())
+    {
+        anyhow::bail!(
+            "--resume and --checkpoint-every apply to lid_driven_cavity scenes only (drops are short)"
+        );
+    }
     match scene.case {
-        CaseKind::EllipticalDrop => run_drop::<D2>(&scene, refs, out),
-        CaseKind::SpheroidDrop => run_drop::<D3>(&scene, refs, out),
+        CaseKind::EllipticalDrop => run_drop::<D2>(&scene, refs, out, options),
+        CaseKind::SpheroidDrop => run_drop::<D3>(&scene, refs, out, options),
         CaseKind::PrescribedEllipse => run_prescribed::<D2>(&scene, refs, out),
         CaseKind::PrescribedEllipsoid => run_prescribed::<D3>(&scene, refs, out),
-        CaseKind::LidDrivenCavity if scene.dim == 2 => run_cavity::<D2>(&scene, name, refs, out),
-        CaseKind::LidDrivenCavity => run_cavity::<D3>(&scene, name, refs, out),
+        CaseKind::LidDrivenCavity if scene.dim == 2 => {
+            run_cavity::<D2>(&scene, name, refs, out, options)
+        }
+        CaseKind::LidDrivenCavity => run_cavity::<D3>(&scene, name, refs, out, options),
     }
 }
 
@@ -233,6 +254,8 @@ struct SchemeOutput {
 impl SchemeOutput {
     /// Creates `<out>/<stem>.csv` (with `header`) and `<out>/<mcap_stem>.mcap` (every
     /// `stride`-th particle frame, the scene as metadata).
+    /// With `append`, an existing CSV is continued (a resumed run) instead of replaced.
+    #[allow(clippy::too_many_arguments)]
     fn create<D: Dim>(
         out: &Path,
         csv_path: PathBuf,
@@ -241,11 +264,20 @@ impl SchemeOutput {
         scene: &Scene,
         scheme: SchemeKind,
         stride: usize,
+        append: bool,
     ) -> anyhow::Result<Self> {
-        let file = std::fs::File::create(&csv_path)
+        let continuing = append && csv_path.exists();
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .write(true)
+            .append(continuing)
+            .truncate(!continuing)
+            .open(&csv_path)
             .with_context(|| format!("creating {}", csv_path.display()))?;
         let mut csv = std::io::BufWriter::new(file);
-        writeln!(csv, "{header}")?;
+        if !continuing {
+            writeln!(csv, "{header}")?;
+        }
         let mut meta = std::collections::BTreeMap::new();
         meta.insert("case".into(), scene.case.name().to_string());
         meta.insert("scheme".into(), scheme.name().to_string());
@@ -323,23 +355,58 @@ fn run_cavity<D: Dim>(
     name: &str,
     refs: &References,
     out: &Path,
+    options: &RunOptions,
 ) -> anyhow::Result<SceneResult> {
     let case = scene.case.name();
     let mut result = SceneResult::default();
     for &scheme in &scene.schemes {
         let stem = format!("{name}_{}", scheme.name());
-        // About 40 particle frames per run; metrics at every record.
+        let checkpoint_path = out.join(format!("{stem}.checkpoint.json"));
+        let resume: Option<sph_integrators::Checkpoint> =
+            if options.resume && checkpoint_path.exists() {
+                let text = std::fs::read_to_string(&checkpoint_path)
+                    .with_context(|| format!("reading {}", checkpoint_path.display()))?;
+                let c: sph_integrators::Checkpoint = serde_json::from_str(&text)
+                    .with_context(|| format!("parsing {}", checkpoint_path.display()))?;
+                println!(
+                    "  {stem}: resuming from step {} (t = {}) in {}",
+                    c.step,
+                    c.t,
+                    checkpoint_path.display()
+                );
+                Some(c)
+            } else {
+                None
+            };
+        let mcap_stem = match &resume {
+            Some(c) => format!("{name}-{}-from-step{}", scheme.name(), c.step),
+            None => format!("{name}-{}", scheme.name()),
+        };
+        // About 40 particle frames per run by default; metrics at every record.
         let mut output = SchemeOutput::create::<D>(
             out,
             out.join(format!("{stem}.csv")),
-            &format!("{name}-{}", scheme.name()),
+            &mcap_stem,
             CAVITY_HEADER,
             scene,
             scheme,
-            10,
+            options.frame_stride.unwrap_or(10),
+            resume.is_some(),
         )?;
+        // Checkpoints are written to a temporary file and renamed, so a run killed mid-write
+        // keeps the previous checkpoint.
+        let mut save = |c: &sph_integrators::Checkpoint| -> std::io::Result<()> {
+            let tmp = checkpoint_path.with_extension("json.tmp");
+            std::fs::write(&tmp, serde_json::to_vec(c)?)?;
+            std::fs::rename(&tmp, &checkpoint_path)
+        };
+        let control = cavity::RunControl {
+            resume: resume.as_ref(),
+            checkpoint_every: options.checkpoint_every,
+            save: Some(&mut save),
+        };
         let t0 = std::time::Instant::now();
-        let outcome = cavity::run::<D>(scene, scheme, refs, &mut |r, frame| {
+        let outcome = cavity::run_with::<D>(scene, scheme, refs, control, &mut |r, frame| {
             output.record(&cavity_row(r), frame)
         });
         output.finish()?;
@@ -378,7 +445,9 @@ fn run_cavity<D: Dim>(
             .map(|r| r.solver_iterations as f64)
             .sum::<f64>()
             / stepped.len().max(1) as f64;
-        let per_step = wall_s / steps.max(1) as f64;
+        // Steps taken by this process (a resumed run started at the checkpoint's step).
+        let taken = steps - resume.as_ref().map_or(0, |c| c.step);
+        let per_step = wall_s / taken.max(1) as f64;
         let n = run.particles.0 + run.particles.1;
         let ghia = run.ghia.map_or("—".to_string(), |g| {
             format!(
@@ -412,7 +481,7 @@ fn run_cavity<D: Dim>(
             kernel: format!("{:?}", scene.kernel),
             dim: D::DIM,
             particles: n,
-            steps,
+            steps: taken,
             wall_s,
             solver_iters_mean: iters,
         });
@@ -456,7 +525,12 @@ fn drop_row(r: &DropRecord, first: &DropRecord) -> String {
     )
 }
 
-fn run_drop<D: Dim>(scene: &Scene, refs: &References, out: &Path) -> anyhow::Result<SceneResult> {
+fn run_drop<D: Dim>(
+    scene: &Scene,
+    refs: &References,
+    out: &Path,
+    options: &RunOptions,
+) -> anyhow::Result<SceneResult> {
     let case = scene.case.name();
     let mut checks = Vec::new();
     let mut runs = Vec::new();
@@ -470,7 +544,8 @@ fn run_drop<D: Dim>(scene: &Scene, refs: &References, out: &Path) -> anyhow::Res
             DROP_HEADER,
             scene,
             scheme,
-            1,
+            options.frame_stride.unwrap_or(1),
+            false,
         )?;
         let mut first: Option<DropRecord> = None;
         let t0 = std::time::Instant::now();

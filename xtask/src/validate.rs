@@ -39,7 +39,17 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
         println!("{} ({:?} preset)", path.display(), args.preset);
         let t = Instant::now();
         let name = crate::run::scene_stem(&path);
-        let result = crate::run::run_scene(&scene, &name, args.preset, &refs, &args.out)?;
+        let result = crate::run::run_scene(
+            &scene,
+            &name,
+            args.preset,
+            &refs,
+            &args.out,
+            &crate::run::RunOptions {
+                frame_stride: args.frame_stride,
+                ..Default::default()
+            },
+        )?;
         let wall = t.elapsed().as_secs_f64();
         checks.extend(result.checks.into_iter().map(|c| (c, wall)));
         runs.extend(result.runs);

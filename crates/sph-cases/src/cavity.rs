@@ -21,8 +21,8 @@ use crate::reference::References;
 use crate::{CaseError, Check, Scene};
 use sph_core::{Dim, ParticleSet, VectorOps};
 use sph_integrators::{
-    DetFStats, Frame, Integrator, Scheme, SchemeKind, SimConfig, Simulation, Viscosity, WallModel,
-    Walls,
+    Checkpoint, DetFStats, Frame, Integrator, Scheme, SchemeKind, SimConfig, Simulation, Viscosity,
+    WallModel, Walls,
 };
 use sph_kernels::Kernel;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
@@ -317,6 +317,22 @@ fn record<D: Dim>(
     }
 }
 
+/// A receiver of checkpoints (the caller writes them where it likes).
+pub type SaveCheckpoint<'a> = dyn FnMut(&Checkpoint) -> std::io::Result<()> + 'a;
+
+/// How a cavity run starts and saves its state ([`run_with`]).
+#[derive(Default)]
+pub struct RunControl<'a> {
+    /// Continue from this checkpoint (of the same scene and scheme) instead of t = 0. The
+    /// initial record is not observed again; the density change is still measured against the
+    /// initial lattice.
+    pub resume: Option<&'a Checkpoint>,
+    /// Hand a checkpoint to `save` every this many steps and after the last step.
+    pub checkpoint_every: Option<usize>,
+    /// Receives the checkpoints.
+    pub save: Option<&'a mut SaveCheckpoint<'a>>,
+}
+
 /// Runs one scheme on the cavity of `scene` to `scene.t_end`, calling `observe` with every
 /// record and the particle state as soon as they exist. A failing step ends the run with an
 /// error after everything observed so far has been handed out.
@@ -324,6 +340,18 @@ pub fn run<D: Dim>(
     scene: &Scene,
     scheme: SchemeKind,
     refs: &References,
+    observe: &mut dyn FnMut(&CavityRecord, &dyn Frame) -> std::io::Result<()>,
+) -> Result<CavityRun, CaseError> {
+    run_with::<D>(scene, scheme, refs, RunControl::default(), observe)
+}
+
+/// [`run`], resuming from and saving checkpoints as `control` says (runs longer than a
+/// session). The returned records start at the resumed step.
+pub fn run_with<D: Dim>(
+    scene: &Scene,
+    scheme: SchemeKind,
+    refs: &References,
+    mut control: RunControl<'_>,
     observe: &mut dyn FnMut(&CavityRecord, &dyn Frame) -> std::io::Result<()>,
 ) -> Result<CavityRun, CaseError> {
     let spec = scene.cavity.clone().expect("validated cavity scene");
@@ -341,14 +369,27 @@ pub fn run<D: Dim>(
     let mut pending: Vec<f64> = spec.snapshots.clone();
     pending.sort_by(f64::total_cmp);
     let mut pending = pending.into_iter().peekable();
-    let r0 = record(&sim, scheme, spec.reynolds, refs, &mut probe, None);
-    observe(&r0, &sim)?;
-    records.push(r0);
-    while pending.peek().is_some_and(|t| *t <= 0.0) {
-        pending.next();
-        snapshots.push(probe.snapshot(0.0, rho0));
+    if let Some(c) = control.resume {
+        probe.measure(&sim); // the initial lattice's ρ̂, for density_change_rms
+        sim.restore(c)
+            .map_err(|e| CaseError::Resume(e.to_string()))?;
+        while pending
+            .peek()
+            .is_some_and(|t| *t <= sim.t + 1e-9 * scene.dt)
+        {
+            pending.next();
+        }
+    } else {
+        let r0 = record(&sim, scheme, spec.reynolds, refs, &mut probe, None);
+        observe(&r0, &sim)?;
+        records.push(r0);
+        while pending.peek().is_some_and(|t| *t <= 0.0) {
+            pending.next();
+            snapshots.push(probe.snapshot(0.0, rho0));
+        }
     }
-    for k in 1..=steps {
+    let first = sim.step + 1;
+    for k in first..=steps {
         let report = integrator
             .step(&mut sim, scene.dt)
             .map_err(|source| CaseError::Step {
@@ -370,6 +411,17 @@ pub fn run<D: Dim>(
                 snapshots.push(probe.snapshot(sim.t, rho0));
             }
         }
+        if let (Some(n), Some(save)) = (control.checkpoint_every, control.save.as_mut())
+            && (k % n.max(1) == 0 || k == steps)
+        {
+            save(&sim.checkpoint())?;
+        }
+    }
+    if records.is_empty() {
+        // Resumed at (or past) the end: one record of the restored state.
+        let r = record(&sim, scheme, spec.reynolds, refs, &mut probe, None);
+        observe(&r, &sim)?;
+        records.push(r);
     }
     if snapshots.last().is_none_or(|s| s.t < sim.t) {
         snapshots.push(probe.snapshot(sim.t, rho0));

@@ -33,6 +33,9 @@ pub enum CaseError {
         /// What is wrong.
         message: String,
     },
+    /// A checkpoint does not fit the scene.
+    #[error("resuming: {0}")]
+    Resume(String),
     /// The initial particle set is invalid.
     #[error("case setup: {0}")]
     Setup(#[from] CoreError),

@@ -16,6 +16,7 @@
 //!
 //! Start with [`Simulation::new`] and [`Integrator::step`].
 
+mod checkpoint;
 mod config;
 mod error;
 mod frame;
@@ -28,6 +29,7 @@ mod tests;
 mod time_step;
 mod walls;
 
+pub use checkpoint::{Checkpoint, RestoreError};
 pub use config::{Effects, FreeSurface, Shifting, SimConfig, Viscosity};
 pub use error::StepError;
 pub use frame::Frame;
