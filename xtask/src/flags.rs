@@ -126,4 +126,10 @@ pub struct ValidateArgs {
     /// Write every N-th particle frame to MCAP (default: every drop step, ~40 cavity frames).
     #[arg(long, value_name = "N")]
     pub frame_stride: Option<usize>,
+    /// Cavity runs: checkpoint every N steps into the output directory.
+    #[arg(long, value_name = "N")]
+    pub checkpoint_every: Option<usize>,
+    /// Cavity runs: continue from their checkpoints (a `--preset paper` spanning sessions).
+    #[arg(long)]
+    pub resume: bool,
 }

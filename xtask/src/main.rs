@@ -35,6 +35,14 @@ fn main() -> std::process::ExitCode {
                     .tag
                     .clone()
                     .unwrap_or_else(|| run::scene_stem(&args.scene));
+                if scene.case != sph_cases::CaseKind::LidDrivenCavity
+                    && (args.resume || args.checkpoint_every.is_some())
+                {
+                    anyhow::bail!(
+                        "--resume and --checkpoint-every apply to lid_driven_cavity scenes only \
+                         (drops are short)"
+                    );
+                }
                 let options = run::RunOptions {
                     checkpoint_every: args.checkpoint_every,
                     resume: args.resume,

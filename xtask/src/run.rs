@@ -149,7 +149,7 @@ pub struct RunInfo {
 /// Output and continuation options of a run.
 #[derive(Clone, Debug, Default)]
 pub struct RunOptions {
-    /// Cavity: checkpoint every this many steps.
+    /// Cavity: checkpoint every this many steps (other cases are short and ignore it).
     pub checkpoint_every: Option<usize>,
     /// Cavity: resume from the checkpoint file if it exists.
     pub resume: bool,
@@ -181,13 +181,6 @@ pub fn run_scene(
         Preset::Paper => scene.clone(),
     };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    if !matches!(scene.case, CaseKind::LidDrivenCavity)
-        && (options.resume || options.checkpoint_every.is_some())
-    {
-        anyhow::bail!(
-            "--resume and --checkpoint-every apply to lid_driven_cavity scenes only (drops are short)"
-        );
-    }
     match scene.case {
         CaseKind::EllipticalDrop => run_drop::<D2>(&scene, refs, out, options),
         CaseKind::SpheroidDrop => run_drop::<D3>(&scene, refs, out, options),

@@ -47,7 +47,8 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
             &args.out,
             &crate::run::RunOptions {
                 frame_stride: args.frame_stride,
-                ..Default::default()
+                checkpoint_every: args.checkpoint_every,
+                resume: args.resume,
             },
         )?;
         let wall = t.elapsed().as_secs_f64();
