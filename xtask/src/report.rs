@@ -531,6 +531,28 @@ fn figure(md: &mut String, file: &str, caption: &str) {
     let _ = writeln!(md, "![{caption}]({file})\n\n*{caption}*\n");
 }
 
+/// One line per scheme of `column` against t, written to `file` and linked from `md`.
+#[allow(clippy::too_many_arguments)]
+fn per_scheme_figure(
+    dir: &Path,
+    md: &mut String,
+    runs: &[(String, Table)],
+    column: &str,
+    file: &str,
+    title: &str,
+    y_label: &str,
+    caption: &str,
+) -> anyhow::Result<()> {
+    let series: Vec<Series> = runs
+        .iter()
+        .map(|(s, t)| Series::line(s.as_str(), t.pairs("t", column)))
+        .collect();
+    if line_plot(&dir.join(file), title, "t", y_label, &series, false)? {
+        figure(md, file, caption);
+    }
+    Ok(())
+}
+
 fn figures(dir: &Path, found: &Found, md: &mut String) -> anyhow::Result<()> {
     // Fig. 1: volume under a prescribed divergence-free field.
     let mut series = Vec::new();
@@ -565,21 +587,16 @@ fn figures(dir: &Path, found: &Found, md: &mut String) -> anyhow::Result<()> {
     // Fig. 3: drops.
     for (case, runs) in &found.drops {
         let _ = write!(md, "### Fig. 3 — {case}\n\n");
-        let vol: Vec<Series> = runs
-            .iter()
-            .map(|(s, t)| Series::line(s.as_str(), t.pairs("t", "rel_change_moments")))
-            .collect();
-        let f = format!("fig3_{case}_volume.svg");
-        if line_plot(
-            &dir.join(&f),
+        per_scheme_figure(
+            dir,
+            md,
+            runs,
+            "rel_change_moments",
+            &format!("fig3_{case}_volume.svg"),
             &format!("{case}: relative volume change"),
-            "t",
             "ΔV/V0 (second moments)",
-            &vol,
-            false,
-        )? {
-            figure(md, &f, "Relative volume change against time, per scheme.");
-        }
+            "Relative volume change against time, per scheme.",
+        )?;
         let mut axes = Vec::new();
         for (s, t) in runs {
             axes.push(Series::line(format!("{s} a"), t.pairs("t", "a")));
@@ -655,25 +672,16 @@ fn figures(dir: &Path, found: &Found, md: &mut String) -> anyhow::Result<()> {
     // Figs. 7 and 9: RMS density error; Figs. 8 and 10: density-error field.
     for (run, tables) in &found.cavities {
         let _ = write!(md, "### Figs. 7/9 — {run}: RMS density error (Eq. 31)\n\n");
-        let series: Vec<Series> = tables
-            .iter()
-            .map(|(s, t)| Series::line(s.as_str(), t.pairs("t", "density_error_rms")))
-            .collect();
-        let f = format!("fig7_{run}_density_error.svg");
-        if line_plot(
-            &dir.join(&f),
+        per_scheme_figure(
+            dir,
+            md,
+            tables,
+            "density_error_rms",
+            &format!("fig7_{run}_density_error.svg"),
             &format!("{run}: RMS of ρ̂/ρ0 − 1"),
-            "t",
             "RMS density error",
-            &series,
-            false,
-        )? {
-            figure(
-                md,
-                &f,
-                "RMS relative density error on the uniform probe array against time.",
-            );
-        }
+            "RMS relative density error on the uniform probe array against time.",
+        )?;
         let ghia: Vec<Series> = tables
             .iter()
             .flat_map(|(s, t)| {
