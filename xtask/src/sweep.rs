@@ -55,80 +55,73 @@ fn name<T: serde::Serialize>(v: &T) -> String {
         .unwrap_or_default()
 }
 
-fn drop_point(scene: &Scene, refs: &References, study: &'static str) -> Point {
-    let scheme = scene.schemes[0];
-    let particles = drop::setup::<D2>(scene, refs).particles.len();
-    let t0 = Instant::now();
-    let outcome = drop::run::<D2>(scene, scheme, refs, &mut |_, _| Ok(()));
-    let wall_s = t0.elapsed().as_secs_f64();
-    let (error, error2, steps, status) = match outcome {
-        Ok(records) => {
-            let last = drop::last_full_step(&records);
-            (
-                (last.semi_axes[0] / last.exact.a - 1.0).abs(),
-                drop::volume_change(&records).abs(),
-                records.len() - 1,
-                "ok".to_string(),
-            )
+/// What one run measured: `(particles, steps, error, error2, status)`.
+type Measured = (usize, usize, f64, f64, String);
+
+impl Point {
+    /// Times `run` on `scene` (one scheme) and records what it measured; a failed run is a
+    /// point with NaN errors and the failure as its status.
+    fn measure(
+        case: &'static str,
+        study: &'static str,
+        scene: &Scene,
+        run: impl FnOnce() -> Result<Measured, sph_cases::CaseError>,
+    ) -> Self {
+        let t0 = Instant::now();
+        let outcome = run();
+        let wall_s = t0.elapsed().as_secs_f64();
+        let (particles, steps, error, error2, status) =
+            outcome.unwrap_or_else(|e| (0, 0, f64::NAN, f64::NAN, format!("failed: {e}")));
+        Point {
+            case,
+            study,
+            scheme: scene.schemes[0],
+            kernel: scene.kernel,
+            solver: scene.solver,
+            dx: scene.dx,
+            dt: scene.dt,
+            particles,
+            steps,
+            wall_s,
+            error,
+            error2,
+            status,
         }
-        Err(e) => (f64::NAN, f64::NAN, 0, format!("failed: {e}")),
-    };
-    Point {
-        case: "elliptical_drop",
-        study,
-        scheme,
-        kernel: scene.kernel,
-        solver: scene.solver,
-        dx: scene.dx,
-        dt: scene.dt,
-        particles,
-        steps,
-        wall_s,
-        error,
-        error2,
-        status,
     }
 }
 
+fn drop_point(scene: &Scene, refs: &References, study: &'static str) -> Point {
+    let particles = drop::setup::<D2>(scene, refs).particles.len();
+    Point::measure("elliptical_drop", study, scene, || {
+        let records = drop::run::<D2>(scene, scene.schemes[0], refs, &mut |_, _| Ok(()))?;
+        let last = drop::last_full_step(&records);
+        Ok((
+            particles,
+            records.len() - 1,
+            (last.semi_axes[0] / last.exact.a - 1.0).abs(),
+            drop::volume_change(&records).abs(),
+            "ok".to_string(),
+        ))
+    })
+}
+
 fn cavity_point(scene: &Scene, refs: &References) -> Point {
-    let scheme = scene.schemes[0];
-    let t0 = Instant::now();
-    let outcome = cavity::run::<D2>(scene, scheme, refs, &mut |_, _| Ok(()));
-    let wall_s = t0.elapsed().as_secs_f64();
-    let (error, error2, steps, particles, status) = match outcome {
-        Ok(run) => {
-            let last = run.records.last().expect("initial record");
-            let g = run.ghia.map_or(f64::NAN, |g| g.u_rms.max(g.v_rms));
-            let pen = last.wall_penetrations;
-            (
-                g,
-                last.density_error_rms,
-                last.step,
-                run.particles.0 + run.particles.1,
-                if pen == 0 {
-                    "ok".to_string()
-                } else {
-                    format!("{pen} wall penetrations")
-                },
-            )
-        }
-        Err(e) => (f64::NAN, f64::NAN, 0, 0, format!("failed: {e}")),
-    };
-    Point {
-        case: "cavity_re100",
-        study: "dx",
-        scheme,
-        kernel: scene.kernel,
-        solver: scene.solver,
-        dx: scene.dx,
-        dt: scene.dt,
-        particles,
-        steps,
-        wall_s,
-        error,
-        error2,
-        status,
-    }
+    Point::measure("cavity_re100", "dx", scene, || {
+        let run = cavity::run::<D2>(scene, scene.schemes[0], refs, &mut |_, _| Ok(()))?;
+        let last = run.records.last().expect("initial record");
+        let pen = last.wall_penetrations;
+        Ok((
+            run.particles.0 + run.particles.1,
+            last.step,
+            run.ghia.map_or(f64::NAN, |g| g.u_rms.max(g.v_rms)),
+            last.density_error_rms,
+            if pen == 0 {
+                "ok".to_string()
+            } else {
+                format!("{pen} wall penetrations")
+            },
+        ))
+    })
 }
 
 /// Least-squares slope of ln(error) against ln(x) over the finite, positive points.
