@@ -449,7 +449,7 @@ fn run_cavity<D: Dim>(
             )
         });
         println!(
-            "  {name} {:<19} fluid={} walls={} steps={steps} t={:.3} KE {:.4e} ρ̂ rms {:.3e} (Δ {:.3e}) pen {} steady {}  {ghia}  iters/step {iters:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{wall_s:.1} s]",
+            "  {name} {:<19} fluid={} walls={} steps={steps} t={:.3} KE {:.4e} ρ̂ rms {:.3e} (Δ {:.3e}) max pen {} steady {}  {ghia}  iters/step {iters:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{wall_s:.1} s]",
             scheme.name(),
             run.particles.0,
             run.particles.1,
@@ -457,7 +457,7 @@ fn run_cavity<D: Dim>(
             last.kinetic_energy,
             last.density_error_rms,
             last.density_change_rms,
-            last.wall_penetrations,
+            run.max_penetrations(),
             run.steady_time.map_or("no".into(), |t| format!("t={t:.2}")),
             per_step,
             n as f64 / per_step,

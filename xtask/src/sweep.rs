@@ -109,14 +109,7 @@ fn cavity_point(scene: &Scene, refs: &References) -> Point {
     Point::measure("cavity_re100", "dx", scene, || {
         let run = cavity::run::<D2>(scene, scene.schemes[0], refs, &mut |_, _| Ok(()))?;
         let last = run.records.last().expect("initial record");
-        // Most particles outside at any record: a particle that crosses a wall and comes back
-        // is a penetration too.
-        let pen = run
-            .records
-            .iter()
-            .map(|r| r.wall_penetrations)
-            .max()
-            .unwrap_or(0);
+        let pen = run.max_penetrations();
         Ok((
             run.particles.0 + run.particles.1,
             last.step,
