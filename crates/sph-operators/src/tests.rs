@@ -311,3 +311,27 @@ sph_core::dim_tests! {
         assert!(cos > 0.999, "∇C at the centre is not towards the crowding neighbour: cos {cos}");
     }
 }
+
+sph_core::dim_tests! {
+    fn concentration_gradient_applies_lind_anti_clumping_factor<D>() {
+        // A pair at distance r: ∇C_0 = V (1 + R (W(r)/W(Δp))ⁿ) ∇W(x_0 − x_1) with Lind et al.'s
+        // R = 0.2, n = 4. At r = Δp the factor is exactly 1.2; at r = Δp/2 it is
+        // 1 + 0.2 (W(Δp/2)/W(Δp))⁴. A wrong R or n changes either value.
+        let dx = 0.1;
+        let kernel = KernelKind::WendlandC2.build::<D>(1.3 * dx);
+        let lists = sph_neighbors::NeighborList::from_rows(&[vec![0, 1], vec![0, 1]]);
+        let vols = [0.7 * dx, 1.3 * dx];
+        for (r, factor) in [
+            (dx, 1.2),
+            (0.5 * dx, 1.0 + 0.2 * (kernel.w(0.5 * dx) / kernel.w(dx)).powi(4)),
+        ] {
+            let pos = [D::Vector::ZERO, D::Vector::from_fn(|k| if k == 0 { r } else { 0.0 })];
+            let ctx = SphContext::new(&pos, &vols, &lists, &kernel);
+            let mut g = [D::Vector::ZERO; 2];
+            concentration_gradient(&ctx, dx, &mut g);
+            let want = kernel.grad_w(pos[0] - pos[1]) * (vols[1] * factor);
+            assert!((g[0] - want).length() < 1e-12 * want.length(), "r = {r}: {:?}", g[0].to_array3());
+            assert!(g[0].get(0) > 0.0, "∇C points towards the neighbour");
+        }
+    }
+}
