@@ -2,7 +2,8 @@
 //! metrics as JSON on `/metrics`, the scene as file metadata. `log_time` is simulated time in ns.
 //!
 //! Open a file in Foxglove (app or web): *Open local file*, add a 3D panel, show `/particles`
-//! (frame `world`) and colour by `pressure`, `det_f` or `free_surface`; plot `/metrics` fields
+//! (frame `world`) and colour by `pressure`, `det_f`, `free_surface` or `wall` (1 for the
+//! fixed wall particles of a cavity, which a filter can hide); plot `/metrics` fields
 //! (`t`, `rel_change_moments`, `p_centre`, ...) in a Plot panel.
 
 use anyhow::Context as _;
@@ -18,7 +19,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// Fields of every point, all `f32`, in this order.
-pub const FIELDS: [&str; 10] = [
+pub const FIELDS: [&str; 11] = [
     "x",
     "y",
     "z",
@@ -29,6 +30,7 @@ pub const FIELDS: [&str; 10] = [
     "density",
     "free_surface",
     "det_f",
+    "wall",
 ];
 
 /// An open MCAP file receiving frames.
@@ -121,6 +123,7 @@ fn point_cloud(frame: &dyn Frame, t_ns: u64) -> PointCloud {
             frame.density(i),
             f64::from(u8::from(frame.free_surface(i))),
             frame.det_f(i),
+            f64::from(u8::from(frame.wall(i))),
         ];
         for v in values {
             data.extend_from_slice(&(v as f32).to_le_bytes());
@@ -242,9 +245,42 @@ mod tests {
             .iter()
             .find(|m| m.channel.topic == "/particles")
             .unwrap();
-        // The protobuf payload holds every point: 10 f32 fields per particle plus the header.
+        // The protobuf payload holds every point: 11 f32 fields per particle plus the header.
         assert!(frame.data.len() > n_particles * FIELDS.len() * 4);
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// The `wall` field marks exactly the cavity's wall particles (stored after the fluid), so a
+    /// Foxglove user can colour or hide them; the other fields sit at their documented offsets.
+    #[test]
+    fn point_cloud_fields_mark_wall_particles() {
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/cavity_re100.toml"),
+        )
+        .unwrap();
+        let scene = Scene::parse("cavity_re100", &text).unwrap();
+        let setup = sph_cases::cavity::setup::<D2>(&scene).unwrap();
+        let first_wall = setup.walls.first;
+        let sim =
+            sph_integrators::Simulation::with_walls(setup.particles, setup.config, setup.walls)
+                .unwrap();
+        let cloud = point_cloud(&sim, 0);
+        let names: Vec<&str> = cloud.fields.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, FIELDS);
+        let stride = cloud.point_stride as usize;
+        assert_eq!(cloud.data.len(), sim.len() * stride);
+        let field = |i: usize, name: &str| {
+            let k = FIELDS.iter().position(|f| *f == name).unwrap();
+            let at = i * stride + k * 4;
+            f32::from_le_bytes(cloud.data[at..at + 4].try_into().unwrap())
+        };
+        let walls: Vec<usize> = (0..sim.len())
+            .filter(|&i| field(i, "wall") == 1.0)
+            .collect();
+        assert_eq!(walls, (first_wall..sim.len()).collect::<Vec<_>>());
+        assert!((0..first_wall).all(|i| field(i, "wall") == 0.0));
+        // Positions are in place: particle 0 of the 20² lattice sits at (dx/2, dx/2).
+        assert_eq!((field(0, "x"), field(0, "y")), (0.025, 0.025));
     }
 
     #[test]

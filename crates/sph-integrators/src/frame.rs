@@ -26,6 +26,8 @@ pub trait Frame {
     fn free_surface(&self, i: usize) -> bool;
     /// det F of particle `i` over the last step (1 before the first step or without diagnostics).
     fn det_f(&self, i: usize) -> f64;
+    /// Whether particle `i` is a wall particle (fixed, prescribed velocity) rather than fluid.
+    fn wall(&self, i: usize) -> bool;
 }
 
 impl<D: Dim> Frame for Simulation<D> {
@@ -58,5 +60,8 @@ impl<D: Dim> Frame for Simulation<D> {
             return 1.0;
         }
         self.buf.det_f.get(i).map_or(1.0, |f| f.determinant())
+    }
+    fn wall(&self, i: usize) -> bool {
+        i >= self.fluid_len()
     }
 }
