@@ -199,10 +199,16 @@ fn projection_step<D: Dim>(
     let p = &sim.particles;
     // The explicit forces read the lists at xⁿ (Algorithms 1–2: ν∇²uⁿ).
     let mut correction_fallbacks = 0;
+    sim.engine.saved.valid = false;
     if viscous {
         correction_fallbacks = prepare_current(&mut sim.engine, p, step, t)?;
     }
     intermediate_velocity(&sim.engine, &mut sim.buf, p, sim.engine.walls.as_ref(), dt);
+    if viscous && rule == PositionRule::Predicted && sim.engine.config.diagnostics {
+        // Keep the xⁿ lists for the det F diagnostics below.
+        sim.engine.swap_saved();
+        sim.engine.saved.valid = true;
+    }
     let nf = sim.engine.fluid;
     let x_eval = match rule {
         PositionRule::Current => &p.positions,
@@ -272,11 +278,16 @@ fn projection_step<D: Dim>(
     }
     let det_f = if sim.engine.config.diagnostics {
         if rule == PositionRule::Predicted {
-            // The step's deformation is measured from xⁿ: rebuild the lists there (keeping the
-            // free-surface flags of the projection).
-            sim.buf.flags.copy_from_slice(&sim.engine.dirichlet);
-            prepare_current(&mut sim.engine, p, step, t)?;
-            sim.engine.dirichlet.copy_from_slice(&sim.buf.flags);
+            // The step's deformation is measured from xⁿ: take back the lists set aside there,
+            // or rebuild them (keeping the free-surface flags of the projection either way).
+            if sim.engine.saved.valid {
+                sim.engine.swap_saved();
+                sim.engine.saved.valid = false;
+            } else {
+                sim.buf.flags.copy_from_slice(&sim.engine.dirichlet);
+                prepare_current(&mut sim.engine, p, step, t)?;
+                sim.engine.dirichlet.copy_from_slice(&sim.buf.flags);
+            }
         }
         Some(det_f_stats(
             &sim.engine,

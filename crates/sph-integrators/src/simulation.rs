@@ -42,6 +42,36 @@ pub(crate) struct Engine<D: Dim> {
     pub(crate) grad_p: Vec<D::Vector>,
     pub(crate) scalar: Vec<f64>,
     pub(crate) gauge: MeanZeroGauge,
+    /// Lists prepared at `xⁿ` and set aside while the predictor–corrector scheme projects at the
+    /// predicted positions, so its det F diagnostics need no second build at `xⁿ`.
+    pub(crate) saved: SavedLists<D>,
+}
+
+/// Neighbour lists, volumes, corrections and `∇·r` of one configuration, kept for later reuse
+/// (swapped with the engine's, never copied).
+pub(crate) struct SavedLists<D: Dim> {
+    pub(crate) neighbors: NeighborList,
+    pub(crate) volumes: Vec<f64>,
+    pub(crate) corrections: Vec<D::Matrix>,
+    pub(crate) div_r: Vec<f64>,
+    /// Whether the saved lists belong to the current step's `xⁿ`.
+    pub(crate) valid: bool,
+}
+
+impl<D: Dim> Engine<D> {
+    /// Exchanges the engine's lists (neighbours, volumes, corrections, `∇·r`) with the saved set.
+    /// The saved buffers are sized on first use (allocation-free from the second step on).
+    pub(crate) fn swap_saved(&mut self) {
+        let s = &mut self.saved;
+        let n = self.volumes.len();
+        s.volumes.resize(n, 0.0);
+        s.corrections.resize(n, D::Matrix::IDENTITY);
+        s.div_r.resize(n, 0.0);
+        std::mem::swap(&mut self.neighbors, &mut s.neighbors);
+        std::mem::swap(&mut self.volumes, &mut s.volumes);
+        std::mem::swap(&mut self.corrections, &mut s.corrections);
+        std::mem::swap(&mut self.div_r, &mut s.div_r);
+    }
 }
 
 /// Velocity and position buffers of the schemes.
@@ -90,6 +120,13 @@ impl<D: Dim> Simulation<D> {
             grad_p: Vec::new(),
             scalar: Vec::new(),
             gauge: MeanZeroGauge::default(),
+            saved: SavedLists {
+                neighbors: NeighborList::new(),
+                volumes: Vec::new(),
+                corrections: Vec::new(),
+                div_r: Vec::new(),
+                valid: false,
+            },
             fluid: particles.len(),
             walls: None,
             u_div: Vec::new(),

@@ -103,6 +103,31 @@ sph_core::dim_tests! {
             assert!(matches!(e, StepError::InvalidTimeStep { step: 0, .. }));
         }
     }
+
+    /// Predictor–corrector with viscosity reuses the lists it built at xⁿ for the viscous term
+    /// in its det F diagnostics (instead of rebuilding them after projecting at the predicted
+    /// positions). The reported det F must be exactly that of freshly built xⁿ lists, with the
+    /// projection's free-surface flags, and ∇·r must be left at xⁿ as a rebuild would leave it.
+    fn predictor_corrector_det_f_reuses_the_lists_at_x_n<D>() {
+        let (p, mut cfg) = drop::<D>();
+        cfg.effects.viscosity = Some(Viscosity { nu: 0.1 });
+        let mut sim = Simulation::new(p, cfg).unwrap();
+        let mut scheme = Scheme::new(SchemeKind::PredictorCorrector);
+        for _ in 0..2 {
+            let x_n = sim.particles.positions.clone();
+            let report = scheme.step(&mut sim, 1e-4).unwrap();
+            let (step, t) = (sim.step, sim.t);
+            let div_r = sim.engine.div_r.clone();
+            let flags = sim.engine.dirichlet.clone();
+            let (m, rho) = (sim.particles.masses.clone(), sim.particles.densities.clone());
+            crate::projection::prepare(&mut sim.engine, &x_n, &m, &rho, step, t).unwrap();
+            assert_eq!(sim.engine.div_r, div_r);
+            sim.engine.dirichlet.copy_from_slice(&flags);
+            let mut f = sim.buf.det_f.clone();
+            let expected = crate::projection::det_f_stats(&sim.engine, &x_n, &sim.buf.disp, &mut f);
+            assert_eq!(report.det_f.unwrap(), expected);
+        }
+    }
 }
 
 #[test]
