@@ -166,7 +166,8 @@ pub struct SceneResult {
     pub runs: Vec<RunInfo>,
 }
 
-/// Runs `scene` (with the preset applied), writing `<out>/<case>_<scheme>.csv` per scheme, and
+/// Runs `scene` (with the preset applied), writing `<out>/<name>_<scheme>.csv` and
+/// `<out>/<name>-<scheme>.mcap` per scheme, and
 /// returns its checks.
 pub fn run_scene(
     scene: &Scene,
@@ -182,10 +183,10 @@ pub fn run_scene(
     };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     match scene.case {
-        CaseKind::EllipticalDrop => run_drop::<D2>(&scene, refs, out, options),
-        CaseKind::SpheroidDrop => run_drop::<D3>(&scene, refs, out, options),
-        CaseKind::PrescribedEllipse => run_prescribed::<D2>(&scene, refs, out),
-        CaseKind::PrescribedEllipsoid => run_prescribed::<D3>(&scene, refs, out),
+        CaseKind::EllipticalDrop => run_drop::<D2>(&scene, name, refs, out, options),
+        CaseKind::SpheroidDrop => run_drop::<D3>(&scene, name, refs, out, options),
+        CaseKind::PrescribedEllipse => run_prescribed::<D2>(&scene, name, refs, out),
+        CaseKind::PrescribedEllipsoid => run_prescribed::<D3>(&scene, name, refs, out),
         CaseKind::LidDrivenCavity if scene.dim == 2 => {
             run_cavity::<D2>(&scene, name, refs, out, options)
         }
@@ -482,8 +483,10 @@ fn run_cavity<D: Dim>(
     Ok(result)
 }
 
-fn csv_path(out: &Path, scene: &Scene, scheme: &str) -> PathBuf {
-    out.join(format!("{}_{}.csv", scene.case.name(), scheme))
+/// `<out>/<name>_<scheme>.csv`: `name` is the run's file prefix (the scene file's stem, or
+/// `run --tag`), so runs of one case under different names do not overwrite each other.
+fn csv_path(out: &Path, name: &str, scheme: &str) -> PathBuf {
+    out.join(format!("{name}_{scheme}.csv"))
 }
 
 const DROP_HEADER: &str = "scheme,step,t,short_step,measure_moments,measure_hull,rel_change_moments,rel_change_hull,a,b,a_exact,b_exact,p_centre,p_centre_exact,iterations,rel_residual,max_div_u,det_f_min,det_f_mean,det_f_max,free_surface_particles,step_seconds";
@@ -520,6 +523,7 @@ fn drop_row(r: &DropRecord, first: &DropRecord) -> String {
 
 fn run_drop<D: Dim>(
     scene: &Scene,
+    name: &str,
     refs: &References,
     out: &Path,
     options: &RunOptions,
@@ -532,8 +536,8 @@ fn run_drop<D: Dim>(
     for &scheme in &scene.schemes {
         let mut output = SchemeOutput::create::<D>(
             out,
-            csv_path(out, scene, scheme.name()),
-            &format!("{}-{}", case, scheme.name()),
+            csv_path(out, name, scheme.name()),
+            &format!("{name}-{}", scheme.name()),
             DROP_HEADER,
             scene,
             scheme,
@@ -608,6 +612,7 @@ fn run_drop<D: Dim>(
 
 fn run_prescribed<D: Dim>(
     scene: &Scene,
+    name: &str,
     refs: &References,
     out: &Path,
 ) -> anyhow::Result<SceneResult> {
@@ -616,7 +621,7 @@ fn run_prescribed<D: Dim>(
     let wall_s = t0.elapsed().as_secs_f64();
     let mut infos = Vec::new();
     for run in &runs {
-        let path = csv_path(out, scene, run.update.name());
+        let path = csv_path(out, name, run.update.name());
         let mut w = std::io::BufWriter::new(
             std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?,
         );
@@ -648,4 +653,45 @@ fn run_prescribed<D: Dim>(
         checks,
         runs: infos,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two runs of one drop case under different names (`run --tag`) write separate CSV and
+    /// MCAP files into the same directory instead of overwriting each other.
+    #[test]
+    fn run_name_prefixes_drop_outputs() {
+        let dir = std::env::temp_dir().join(format!("dgsph-run-name-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let scene = Scene {
+            schemes: vec![SchemeKind::Euler],
+            ..Scene::paper_drop(CaseKind::EllipticalDrop, 0.1, 2e-4, 4e-4)
+        };
+        let refs = References::embedded();
+        for name in ["first", "second"] {
+            run_scene(
+                &scene,
+                name,
+                Preset::Paper,
+                refs,
+                &dir,
+                &RunOptions::default(),
+            )
+            .unwrap();
+        }
+        for name in ["first", "second"] {
+            let csv = std::fs::read_to_string(dir.join(format!("{name}_euler.csv"))).unwrap();
+            assert!(csv.starts_with(DROP_HEADER), "{name}: {}", &csv[..40]);
+            assert_eq!(
+                csv.lines().count(),
+                1 + 3,
+                "{name}: header and t = 0, 1, 2 steps"
+            );
+            assert!(dir.join(format!("{name}-euler.mcap")).exists(), "{name}");
+        }
+        assert!(!dir.join("elliptical_drop_euler.csv").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
