@@ -8,6 +8,9 @@ use std::time::Instant;
 /// Runs the selected cases; returns `Ok(true)` if every check passed.
 pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     let t0 = Instant::now();
+    // The revision at launch (what `cargo xtask` just built), not at the end of a long run
+    // during which the tree may have moved on.
+    let git = git_revision();
     let mut checks: Vec<(Check, f64)> = Vec::new();
     let mut runs = Vec::new();
     let refs = crate::run::load_references(args.references.as_deref())?;
@@ -72,7 +75,7 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     // Field names are part of the interface (documented in the README); keep them stable.
     let json = serde_json::json!({
         "preset": format!("{:?}", args.preset).to_lowercase(),
-        "git": git_revision(),
+        "git": git,
         "references": args.references.as_ref().map_or("compiled-in cases/reference".to_string(), |d| d.display().to_string()),
         "passed": passed,
         "checks": checks.iter().map(|(c, wall_s)| serde_json::json!({
