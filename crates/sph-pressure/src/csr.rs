@@ -83,3 +83,41 @@ where
     let n = offsets.len() - 1;
     rec(0..n, offsets, values, f);
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `matvec` equals a plain left-to-right sum on rows of every length 0..=11 (so every
+    /// remainder of the four-way split), to round-off. The solver tests build their right-hand
+    /// sides with this same product, so they could not catch a product that drops terms.
+    #[test]
+    fn matvec_matches_a_plain_row_sum() {
+        let n = 12;
+        let mut offsets = vec![0];
+        let mut cols = Vec::new();
+        let mut values = Vec::new();
+        for i in 0..n {
+            for k in 0..i {
+                cols.push(((i * 7 + k * 5) % n) as u32);
+                values.push(1.0 + 0.1 * (i * n + k) as f64);
+            }
+            offsets.push(cols.len());
+        }
+        let x: Vec<f64> = (0..n).map(|j| 0.5 - 0.3 * j as f64).collect();
+        let mut y = vec![f64::NAN; n];
+        matvec(&offsets, &cols, &values, &x, &mut y);
+        for i in 0..n {
+            let plain: f64 = (offsets[i]..offsets[i + 1])
+                .map(|k| values[k] * x[cols[k] as usize])
+                .sum();
+            assert!(
+                (y[i] - plain).abs() <= 1e-13 * (1.0 + plain.abs()),
+                "row {i} ({} entries): {} vs {plain}",
+                offsets[i + 1] - offsets[i],
+                y[i]
+            );
+        }
+        assert_eq!(y[0], 0.0, "an empty row gives 0");
+    }
+}
