@@ -69,7 +69,7 @@ pub struct RunArgs {
     /// Declare particle shifting with this coefficient A (Lind et al. 2012).
     #[arg(long)]
     pub shifting: Option<f64>,
-    /// Override the solver (`bicgstab_jacobi`, `bicgstab_ilu0`, `sparse_lu`).
+    /// Override the solver (`bicgstab_jacobi`, `bicgstab_ilu0`, `bicgstab_amg`, `sparse_lu`).
     #[arg(long)]
     pub solver: Option<String>,
     /// Override the solver's relative tolerance.

@@ -248,7 +248,9 @@ struct SchemeOutput {
 impl SchemeOutput {
     /// Creates `<out>/<stem>.csv` (with `header`) and `<out>/<mcap_stem>.mcap` (every
     /// `stride`-th particle frame, the scene as metadata).
-    /// With `append`, an existing CSV is continued (a resumed run) instead of replaced.
+    /// With `resume_step`, an existing CSV is continued (a run resumed from the checkpoint of
+    /// that step) instead of replaced; its rows after that step, written between the checkpoint
+    /// and the interruption, are dropped first so the continued series has no duplicates.
     #[allow(clippy::too_many_arguments)]
     fn create<D: Dim>(
         out: &Path,
@@ -258,9 +260,12 @@ impl SchemeOutput {
         scene: &Scene,
         scheme: SchemeKind,
         stride: usize,
-        append: bool,
+        resume_step: Option<usize>,
     ) -> anyhow::Result<Self> {
-        let continuing = append && csv_path.exists();
+        let continuing = resume_step.is_some() && csv_path.exists();
+        if let (true, Some(step)) = (continuing, resume_step) {
+            truncate_csv_after_step(&csv_path, step)?;
+        }
         let file = std::fs::OpenOptions::new()
             .create(true)
             .write(true)
@@ -344,6 +349,32 @@ impl SchemeOutput {
     }
 }
 
+/// Rewrites the CSV at `path` without its data rows whose `step` column (the second) exceeds
+/// `step` (atomically: a temporary file renamed over it). Rows that do not parse are kept.
+fn truncate_csv_after_step(path: &Path, step: usize) -> anyhow::Result<()> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut kept = String::with_capacity(text.len());
+    for (i, line) in text.lines().enumerate() {
+        let later = i > 0
+            && line
+                .split(',')
+                .nth(1)
+                .and_then(|s| s.parse::<usize>().ok())
+                .is_some_and(|s| s > step);
+        if !later {
+            kept.push_str(line);
+            kept.push('\n');
+        }
+    }
+    if kept.len() != text.len() {
+        let tmp = path.with_extension("csv.tmp");
+        std::fs::write(&tmp, &kept).with_context(|| format!("writing {}", tmp.display()))?;
+        std::fs::rename(&tmp, path).with_context(|| format!("replacing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 fn run_cavity<D: Dim>(
     scene: &Scene,
     name: &str,
@@ -385,7 +416,7 @@ fn run_cavity<D: Dim>(
             scene,
             scheme,
             options.frame_stride.unwrap_or(10),
-            resume.is_some(),
+            resume.as_ref().map(|c| c.step),
         )?;
         // Checkpoints are written to a temporary file and renamed, so a run killed mid-write
         // keeps the previous checkpoint.
@@ -542,7 +573,7 @@ fn run_drop<D: Dim>(
             scene,
             scheme,
             options.frame_stride.unwrap_or(1),
-            false,
+            None,
         )?;
         let mut first: Option<DropRecord> = None;
         let t0 = std::time::Instant::now();
@@ -658,6 +689,24 @@ fn run_prescribed<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A run interrupted after its last checkpoint has CSV rows past it; resuming drops them
+    /// (they are recomputed) so the continued series has each step once.
+    #[test]
+    fn resumed_csv_drops_rows_after_the_checkpoint() {
+        let dir = std::env::temp_dir().join(format!("dgsph-resume-csv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("c_dg.csv");
+        std::fs::write(
+            &path,
+            "scheme,step,t\ndg,0,0\ndg,800,1\ndg,900,1.1\ndg,1100,1.4\n",
+        )
+        .unwrap();
+        truncate_csv_after_step(&path, 800).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text, "scheme,step,t\ndg,0,0\ndg,800,1\n");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     /// Two runs of one drop case under different names (`run --tag`) write separate CSV and
     /// MCAP files into the same directory instead of overwriting each other.

@@ -26,8 +26,10 @@
 //! Wall (dummy) particles get the pressure-extrapolation rows of [`assemble_wall_rows`]; a
 //! closed domain (no Dirichlet row) fixes the free constant with [`MeanZeroGauge`].
 //!
-//! Solvers implement [`LinearSolver`]: [`BiCgStab`] with [`Preconditioner::Jacobi`] or
-//! [`Preconditioner::Ilu0`], warm-started from the previous pressure, and [`SparseLu`] (faer's
+//! Solvers implement [`LinearSolver`]: [`BiCgStab`] with [`Preconditioner::Jacobi`],
+//! [`Preconditioner::Ilu0`] or [`Preconditioner::Amg`] (smoothed-aggregation multigrid, for
+//! large closed 2D systems such as the cavity), warm-started from the previous pressure, and
+//! [`SparseLu`] (faer's
 //! sparse LU, for small systems and as a test oracle). Non-convergence is an error carrying the
 //! iteration count and the true residual.
 

@@ -17,6 +17,11 @@ pub struct BiCgStab {
 }
 
 impl BiCgStab {
+    #[cfg(test)]
+    pub(crate) fn amg_shape(&self) -> Vec<(usize, usize)> {
+        self.state.amg_shape()
+    }
+
     /// A solver with the given preconditioner.
     pub fn new(precond: Preconditioner) -> Self {
         Self {
@@ -58,6 +63,7 @@ impl LinearSolver for BiCgStab {
         match self.precond {
             Preconditioner::Jacobi => "bicgstab+jacobi",
             Preconditioner::Ilu0 => "bicgstab+ilu0",
+            Preconditioner::Amg => "bicgstab+amg",
         }
     }
 

@@ -1,0 +1,558 @@
+//! Smoothed-aggregation algebraic multigrid (Vaněk, Mandel & Brezina 1996, Computing 56:179),
+//! used as the preconditioner of [`BiCgStab`](super::BiCgStab): one V-cycle per application.
+//!
+//! Setup, for the matrix `A` of one solve:
+//!
+//! 1. **Row scaling.** The hierarchy is built for `Â = D⁻¹A` (unit diagonal), so the
+//!    `O(1/dx²)` Laplacian rows of fluid particles and the `O(1)` extrapolation rows of wall
+//!    particles are on one footing; applying the preconditioner to `r` is a V-cycle on `D⁻¹r`.
+//! 2. **Strength.** `j` is a strong neighbour of `i` if `|â_ij| ≥ θ max_{k≠i} |â_ik|`
+//!    (θ = [`STRENGTH`]). Rows far longer than the mean (the dense border row of
+//!    [`MeanZeroGauge`](crate::MeanZeroGauge)) are *dense nodes*: each is its own aggregate,
+//!    and their columns are ignored by strength and smoothing.
+//! 3. **Aggregation** (the three passes of Vaněk et al.): seed aggregates from nodes whose
+//!    strong neighbours are all free, attach the rest to a neighbouring aggregate, group any
+//!    remainder. A node without strong neighbours (a Dirichlet row `p = 0`) has no aggregate:
+//!    the smoother solves it.
+//! 4. **Prolongation** `P = (I − ω Â) P₀`, `P₀` the piecewise-constant aggregate indicator (the
+//!    constants — the Laplacian's near-null space — are exactly represented), `ω = 4/(3 ρ)`
+//!    with `ρ` the Gershgorin bound of `Â`.
+//! 5. **Galerkin coarse matrix** `A_c = Pᵀ Â P`, recursively, until at most [`COARSE_MAX`]
+//!    unknowns are left; that level is solved by dense LU with partial pivoting (a pivot below
+//!    round-off — a singular pure-Neumann system — sets its unknown to 0).
+//!
+//! The cycle is a V(ν, ν) cycle with damped Jacobi smoothing (`ω_s = 4/(3ρ)`), a fixed linear
+//! operator, as BiCGSTAB needs. Setup is rebuilt for every solve (the matrix changes every
+//! step); its buffers are kept between solves.
+
+use crate::SolveError;
+use crate::csr::{for_each_row_mut, matvec};
+use crate::solver::CsrSystem;
+use rayon::prelude::*;
+
+/// Strength-of-connection threshold θ.
+const STRENGTH: f64 = 0.25;
+/// Unknowns at or below which a level is solved directly.
+const COARSE_MAX: usize = 300;
+/// Pre- and post-smoothing sweeps.
+const SWEEPS: usize = 1;
+/// Stop coarsening when a level shrinks by less than this factor.
+const MIN_COARSENING: f64 = 1.5;
+/// No aggregate.
+const NONE: u32 = u32::MAX;
+
+/// An owned CSR matrix (possibly rectangular).
+#[derive(Clone, Debug, Default)]
+struct Csr {
+    offsets: Vec<usize>,
+    cols: Vec<u32>,
+    values: Vec<f64>,
+    ncols: usize,
+}
+
+impl Csr {
+    fn nrows(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+    fn clear(&mut self, ncols: usize) {
+        self.offsets.clear();
+        self.offsets.push(0);
+        self.cols.clear();
+        self.values.clear();
+        self.ncols = ncols;
+    }
+    fn matvec(&self, x: &[f64], y: &mut [f64]) {
+        matvec(&self.offsets, &self.cols, &self.values, x, y);
+    }
+}
+
+/// One level: its matrix (the fine level's is the scaled copy of `A`), the prolongation to it
+/// from the next coarser level and the restriction `R = Pᵀ`, and its work vectors.
+#[derive(Clone, Debug, Default)]
+struct Level {
+    a: Csr,
+    inv_diag: Vec<f64>,
+    omega: f64,
+    p: Csr,
+    r: Csr,
+    x: Vec<f64>,
+    b: Vec<f64>,
+    res: Vec<f64>,
+}
+
+/// Dense LU factors of the coarsest level (row-major, partial pivoting).
+#[derive(Clone, Debug, Default)]
+struct DenseLu {
+    n: usize,
+    lu: Vec<f64>,
+    perm: Vec<usize>,
+    /// Pivots below round-off: their unknowns are set to 0.
+    zero_pivot: Vec<bool>,
+}
+
+impl DenseLu {
+    fn factor(&mut self, a: &Csr) {
+        let n = a.nrows();
+        self.n = n;
+        self.lu.clear();
+        self.lu.resize(n * n, 0.0);
+        for i in 0..n {
+            for k in a.offsets[i]..a.offsets[i + 1] {
+                self.lu[i * n + a.cols[k] as usize] += a.values[k];
+            }
+        }
+        self.perm.clear();
+        self.perm.extend(0..n);
+        self.zero_pivot.clear();
+        self.zero_pivot.resize(n, false);
+        let scale = self.lu.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let lu = &mut self.lu;
+        for k in 0..n {
+            let (mut piv, mut best) = (k, lu[k * n + k].abs());
+            for i in k + 1..n {
+                if lu[i * n + k].abs() > best {
+                    (piv, best) = (i, lu[i * n + k].abs());
+                }
+            }
+            if best <= 1e-13 * scale {
+                self.zero_pivot[k] = true;
+                continue;
+            }
+            if piv != k {
+                for j in 0..n {
+                    lu.swap(k * n + j, piv * n + j);
+                }
+                self.perm.swap(k, piv);
+            }
+            let d = lu[k * n + k];
+            for i in k + 1..n {
+                let l = lu[i * n + k] / d;
+                lu[i * n + k] = l;
+                if l != 0.0 {
+                    for j in k + 1..n {
+                        lu[i * n + j] -= l * lu[k * n + j];
+                    }
+                }
+            }
+        }
+    }
+
+    fn solve(&self, b: &[f64], x: &mut [f64]) {
+        let n = self.n;
+        for i in 0..n {
+            let mut s = b[self.perm[i]];
+            for j in 0..i {
+                s -= self.lu[i * n + j] * x[j];
+            }
+            x[i] = s;
+        }
+        for i in (0..n).rev() {
+            if self.zero_pivot[i] {
+                x[i] = 0.0;
+                continue;
+            }
+            let mut s = x[i];
+            for j in i + 1..n {
+                s -= self.lu[i * n + j] * x[j];
+            }
+            x[i] = s / self.lu[i * n + i];
+        }
+    }
+}
+
+/// The multigrid hierarchy, rebuilt by [`Amg::setup`] for each matrix.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Amg {
+    levels: Vec<Level>,
+    /// Levels in use (`levels` keeps spare buffers beyond).
+    depth: usize,
+    coarse: DenseLu,
+    /// `1 / a_ii` of the original matrix (the row scaling).
+    inv_diag0: Vec<f64>,
+    // Setup scratch.
+    agg: Vec<u32>,
+    dense: Vec<bool>,
+    dense_next: Vec<bool>,
+    strong: Vec<bool>,
+    marker: Vec<usize>,
+    ap: Csr,
+}
+
+impl Amg {
+    /// `(rows, non-zeros)` of each level of the last setup (for tests).
+    #[cfg(test)]
+    pub(crate) fn shape(&self) -> Vec<(usize, usize)> {
+        self.levels[..self.depth]
+            .iter()
+            .map(|l| (l.a.nrows(), l.a.cols.len()))
+            .collect()
+    }
+
+    /// Builds the hierarchy for `a`. Errors on a zero or non-finite diagonal.
+    pub(crate) fn setup(
+        &mut self,
+        a: &CsrSystem<'_>,
+        diag_pos: &[usize],
+    ) -> Result<(), SolveError> {
+        let n = a.n();
+        self.inv_diag0.clear();
+        for i in 0..n {
+            let d = a.values[diag_pos[i]];
+            if d == 0.0 || !d.is_finite() {
+                return Err(SolveError::SingularPivot { row: i, value: d });
+            }
+            self.inv_diag0.push(1.0 / d);
+        }
+        if self.levels.is_empty() {
+            self.levels.push(Level::default());
+        }
+        // Fine level: Â = D⁻¹ A.
+        {
+            let l0 = &mut self.levels[0];
+            l0.a.clear(n);
+            l0.a.offsets.clear();
+            l0.a.offsets.extend_from_slice(a.offsets);
+            l0.a.cols.extend_from_slice(a.cols);
+            l0.a.values.extend_from_slice(a.values);
+            let inv = &self.inv_diag0;
+            for_each_row_mut(a.offsets, &mut l0.a.values, &|i, row| {
+                for v in row {
+                    *v *= inv[i];
+                }
+            });
+        }
+        let mut depth = 1;
+        loop {
+            let lvl = depth - 1;
+            let nl = self.levels[lvl].a.nrows();
+            Self::prepare_level(&mut self.levels[lvl]);
+            if nl <= COARSE_MAX {
+                break;
+            }
+            let nc = self.aggregate(lvl);
+            if nc == 0 || (nl as f64) < MIN_COARSENING * nc as f64 {
+                break;
+            }
+            if self.levels.len() <= depth {
+                self.levels.push(Level::default());
+            }
+            self.build_prolongation(lvl, nc);
+            self.galerkin(lvl);
+            std::mem::swap(&mut self.dense, &mut self.dense_next);
+            depth += 1;
+        }
+        self.depth = depth;
+        let last = &self.levels[depth - 1];
+        if last.a.nrows() <= 2 * COARSE_MAX {
+            self.coarse.factor(&last.a);
+        } else {
+            self.coarse.n = 0;
+        }
+        for l in &mut self.levels[..depth] {
+            let m = l.a.nrows();
+            l.x.resize(m, 0.0);
+            l.b.resize(m, 0.0);
+            l.res.resize(m, 0.0);
+        }
+        Ok(())
+    }
+
+    /// Inverse diagonal and smoothing weight of a level.
+    fn prepare_level(l: &mut Level) {
+        let m = l.a.nrows();
+        l.inv_diag.clear();
+        let mut rho = 0.0f64;
+        for i in 0..m {
+            let (s, e) = (l.a.offsets[i], l.a.offsets[i + 1]);
+            let mut d = 0.0;
+            let mut abs = 0.0;
+            for k in s..e {
+                if l.a.cols[k] as usize == i {
+                    d += l.a.values[k];
+                }
+                abs += l.a.values[k].abs();
+            }
+            let inv = if d != 0.0 && d.is_finite() {
+                1.0 / d
+            } else {
+                0.0
+            };
+            l.inv_diag.push(inv);
+            rho = rho.max(abs * inv.abs());
+        }
+        l.omega = if rho > 0.0 { 4.0 / (3.0 * rho) } else { 0.0 };
+    }
+
+    /// Aggregates the unknowns of level `lvl` into `self.agg`; returns the number of aggregates.
+    fn aggregate(&mut self, lvl: usize) -> usize {
+        let a = &self.levels[lvl].a;
+        let m = a.nrows();
+        // Dense nodes: detected by row length on the fine level, inherited (as the singleton
+        // aggregates made of them) on coarser levels, whose rows are all long.
+        if lvl == 0 {
+            let mean_len = a.cols.len() as f64 / m.max(1) as f64;
+            self.dense.clear();
+            self.dense.extend(
+                (0..m).map(|i| (a.offsets[i + 1] - a.offsets[i]) as f64 > 8.0 * mean_len + 64.0),
+            );
+        }
+        // Strong connections, flagged per entry.
+        self.strong.clear();
+        self.strong.resize(a.cols.len(), false);
+        for i in 0..m {
+            if self.dense[i] {
+                continue;
+            }
+            let (s, e) = (a.offsets[i], a.offsets[i + 1]);
+            let mut max = 0.0f64;
+            for k in s..e {
+                let j = a.cols[k] as usize;
+                if j != i && !self.dense[j] {
+                    max = max.max(a.values[k].abs());
+                }
+            }
+            if max == 0.0 {
+                continue;
+            }
+            for k in s..e {
+                let j = a.cols[k] as usize;
+                self.strong[k] = j != i && !self.dense[j] && a.values[k].abs() >= STRENGTH * max;
+            }
+        }
+        let agg = &mut self.agg;
+        agg.clear();
+        agg.resize(m, NONE);
+        let mut nc = 0u32;
+        let has_strong = |i: usize| (a.offsets[i]..a.offsets[i + 1]).any(|k| self.strong[k]);
+        // Pass 1: seeds whose strong neighbourhood is entirely free.
+        for i in 0..m {
+            if self.dense[i] || agg[i] != NONE || !has_strong(i) {
+                continue;
+            }
+            let (s, e) = (a.offsets[i], a.offsets[i + 1]);
+            if (s..e).any(|k| self.strong[k] && agg[a.cols[k] as usize] != NONE) {
+                continue;
+            }
+            agg[i] = nc;
+            for k in s..e {
+                if self.strong[k] {
+                    agg[a.cols[k] as usize] = nc;
+                }
+            }
+            nc += 1;
+        }
+        // Pass 2: attach the rest to the aggregate of their strongest aggregated neighbour.
+        let pass1: Vec<u32> = agg.clone();
+        for i in 0..m {
+            if self.dense[i] || agg[i] != NONE {
+                continue;
+            }
+            let (s, e) = (a.offsets[i], a.offsets[i + 1]);
+            let mut best = (0.0, NONE);
+            for k in s..e {
+                let j = a.cols[k] as usize;
+                if self.strong[k] && pass1[j] != NONE && a.values[k].abs() > best.0 {
+                    best = (a.values[k].abs(), pass1[j]);
+                }
+            }
+            agg[i] = best.1;
+        }
+        // Pass 3: group what is left with its free strong neighbours.
+        for i in 0..m {
+            if self.dense[i] || agg[i] != NONE || !has_strong(i) {
+                continue;
+            }
+            agg[i] = nc;
+            for k in a.offsets[i]..a.offsets[i + 1] {
+                let j = a.cols[k] as usize;
+                if self.strong[k] && agg[j] == NONE && !self.dense[j] {
+                    agg[j] = nc;
+                }
+            }
+            nc += 1;
+        }
+        // Dense nodes: singletons, and dense on the next level.
+        self.dense_next.clear();
+        self.dense_next.resize(nc as usize, false);
+        for i in 0..m {
+            if self.dense[i] {
+                agg[i] = nc;
+                nc += 1;
+                self.dense_next.push(true);
+            }
+        }
+        nc as usize
+    }
+
+    /// `P = (I − ω Â) P₀` (dense columns ignored, dense rows unsmoothed) and `R = Pᵀ`.
+    fn build_prolongation(&mut self, lvl: usize, nc: usize) {
+        let (fine, rest) = self.levels.split_at_mut(lvl + 1);
+        let l = &mut fine[lvl];
+        let _ = rest;
+        let a = &l.a;
+        let m = a.nrows();
+        let omega = l.omega;
+        let p = &mut l.p;
+        p.clear(nc);
+        self.marker.clear();
+        self.marker.resize(nc, usize::MAX);
+        for i in 0..m {
+            let row_start = p.cols.len();
+            if self.dense[i] {
+                p.cols.push(self.agg[i]);
+                p.values.push(1.0);
+            } else {
+                let inv = l.inv_diag[i];
+                for k in a.offsets[i]..a.offsets[i + 1] {
+                    let j = a.cols[k] as usize;
+                    if self.dense[j] || self.agg[j] == NONE {
+                        continue;
+                    }
+                    let c = if j == i { 1.0 } else { 0.0 } - omega * inv * a.values[k];
+                    let g = self.agg[j] as usize;
+                    // Markers left by earlier rows point before this row's start.
+                    if self.marker[g] == usize::MAX || self.marker[g] < row_start {
+                        self.marker[g] = p.cols.len();
+                        p.cols.push(g as u32);
+                        p.values.push(c);
+                    } else {
+                        p.values[self.marker[g]] += c;
+                    }
+                }
+                // Diagonal of Â not in its own aggregate (an isolated node): P₀ row is empty.
+            }
+            p.offsets.push(p.cols.len());
+        }
+        // R = Pᵀ by counting sort.
+        let r = &mut l.r;
+        r.clear(m);
+        r.offsets.clear();
+        r.offsets.resize(nc + 1, 0);
+        for &g in &p.cols {
+            r.offsets[g as usize + 1] += 1;
+        }
+        for g in 0..nc {
+            r.offsets[g + 1] += r.offsets[g];
+        }
+        r.cols.resize(p.cols.len(), 0);
+        r.values.resize(p.cols.len(), 0.0);
+        let mut next = r.offsets.clone();
+        for i in 0..m {
+            for k in p.offsets[i]..p.offsets[i + 1] {
+                let g = p.cols[k] as usize;
+                let dst = next[g];
+                r.cols[dst] = i as u32;
+                r.values[dst] = p.values[k];
+                next[g] += 1;
+            }
+        }
+    }
+
+    /// `A_{lvl+1} = R Â P`.
+    fn galerkin(&mut self, lvl: usize) {
+        let (fine, coarse) = self.levels.split_at_mut(lvl + 1);
+        let l = &fine[lvl];
+        spgemm(&l.a, &l.p, &mut self.ap, &mut self.marker);
+        spgemm(&l.r, &self.ap, &mut coarse[0].a, &mut self.marker);
+    }
+
+    /// `z = M⁻¹ r`: one V-cycle on the scaled residual `D⁻¹ r`.
+    pub(crate) fn apply(&mut self, r: &[f64], z: &mut [f64]) {
+        let inv = &self.inv_diag0;
+        let l0 = &mut self.levels[0];
+        l0.b.par_iter_mut()
+            .zip(r.par_iter().zip(inv.par_iter()))
+            .with_min_len(4096)
+            .for_each(|(b, (r, d))| *b = r * d);
+        self.cycle(0);
+        z.copy_from_slice(&self.levels[0].x);
+    }
+
+    fn cycle(&mut self, lvl: usize) {
+        if lvl + 1 == self.depth {
+            let l = &mut self.levels[lvl];
+            if self.coarse.n == l.a.nrows() && self.coarse.n > 0 {
+                self.coarse.solve(&l.b, &mut l.x);
+            } else {
+                l.x.fill(0.0);
+                for _ in 0..10 {
+                    jacobi(l);
+                }
+            }
+            return;
+        }
+        {
+            let l = &mut self.levels[lvl];
+            l.x.fill(0.0);
+            for _ in 0..SWEEPS {
+                jacobi(l);
+            }
+            // res = b − A x
+            l.a.matvec(&l.x, &mut l.res);
+            l.res
+                .par_iter_mut()
+                .zip(l.b.par_iter())
+                .with_min_len(4096)
+                .for_each(|(r, b)| *r = b - *r);
+        }
+        {
+            let (fine, coarse) = self.levels.split_at_mut(lvl + 1);
+            fine[lvl].r.matvec(&fine[lvl].res, &mut coarse[0].b);
+        }
+        self.cycle(lvl + 1);
+        {
+            let (fine, coarse) = self.levels.split_at_mut(lvl + 1);
+            let l = &mut fine[lvl];
+            // x += P x_c
+            l.p.matvec(&coarse[0].x, &mut l.res);
+            l.x.par_iter_mut()
+                .zip(l.res.par_iter())
+                .with_min_len(4096)
+                .for_each(|(x, c)| *x += c);
+            for _ in 0..SWEEPS {
+                jacobi(l);
+            }
+        }
+    }
+}
+
+/// One damped Jacobi sweep `x += ω D⁻¹ (b − A x)` (uses `res` as scratch).
+fn jacobi(l: &mut Level) {
+    l.a.matvec(&l.x, &mut l.res);
+    let w = l.omega;
+    l.x.par_iter_mut()
+        .zip(
+            l.res
+                .par_iter()
+                .zip(l.b.par_iter().zip(l.inv_diag.par_iter())),
+        )
+        .with_min_len(4096)
+        .for_each(|(x, (ax, (b, d)))| *x += w * d * (b - ax));
+}
+
+/// `c = a · b` (sparse × sparse, Gustavson's row-by-row algorithm; `marker` is scratch).
+fn spgemm(a: &Csr, b: &Csr, c: &mut Csr, marker: &mut Vec<usize>) {
+    c.clear(b.ncols);
+    marker.clear();
+    marker.resize(b.ncols, usize::MAX);
+    for i in 0..a.nrows() {
+        let row_start = c.cols.len();
+        for ka in a.offsets[i]..a.offsets[i + 1] {
+            let k = a.cols[ka] as usize;
+            let av = a.values[ka];
+            for kb in b.offsets[k]..b.offsets[k + 1] {
+                let j = b.cols[kb] as usize;
+                let v = av * b.values[kb];
+                let pos = marker[j];
+                if pos == usize::MAX || pos < row_start {
+                    marker[j] = c.cols.len();
+                    c.cols.push(j as u32);
+                    c.values.push(v);
+                } else {
+                    c.values[pos] += v;
+                }
+            }
+        }
+        c.offsets.push(c.cols.len());
+    }
+}
