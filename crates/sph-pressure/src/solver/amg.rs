@@ -530,12 +530,52 @@ fn jacobi(l: &mut Level) {
         .for_each(|(x, (ax, (b, d)))| *x += w * d * (b - ax));
 }
 
-/// `c = a · b` (sparse × sparse, Gustavson's row-by-row algorithm; `marker` is scratch).
+/// `c = a · b` (sparse × sparse, Gustavson's row-by-row algorithm), in parallel over blocks of
+/// rows, each with its own marker array; the blocks are concatenated in order, so the result
+/// does not depend on the thread count.
 fn spgemm(a: &Csr, b: &Csr, c: &mut Csr, marker: &mut Vec<usize>) {
+    const BLOCK: usize = 2048;
+    let n = a.nrows();
     c.clear(b.ncols);
+    if n <= BLOCK {
+        spgemm_rows(a, b, 0..n, c, marker);
+        return;
+    }
+    let blocks: Vec<Csr> = (0..n.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|k| {
+            let mut part = Csr::default();
+            part.clear(b.ncols);
+            let mut mk = Vec::new();
+            spgemm_rows(
+                a,
+                b,
+                k * BLOCK..((k + 1) * BLOCK).min(n),
+                &mut part,
+                &mut mk,
+            );
+            part
+        })
+        .collect();
+    for part in &blocks {
+        let base = c.cols.len();
+        c.cols.extend_from_slice(&part.cols);
+        c.values.extend_from_slice(&part.values);
+        c.offsets.extend(part.offsets[1..].iter().map(|o| o + base));
+    }
+}
+
+/// Rows `rows` of `a · b`, appended to `c` (whose `offsets` already hold the start).
+fn spgemm_rows(
+    a: &Csr,
+    b: &Csr,
+    rows: std::ops::Range<usize>,
+    c: &mut Csr,
+    marker: &mut Vec<usize>,
+) {
     marker.clear();
     marker.resize(b.ncols, usize::MAX);
-    for i in 0..a.nrows() {
+    for i in rows {
         let row_start = c.cols.len();
         for ka in a.offsets[i]..a.offsets[i + 1] {
             let k = a.cols[ka] as usize;
@@ -544,6 +584,7 @@ fn spgemm(a: &Csr, b: &Csr, c: &mut Csr, marker: &mut Vec<usize>) {
                 let j = b.cols[kb] as usize;
                 let v = av * b.values[kb];
                 let pos = marker[j];
+                // Markers left by earlier rows point before this row's start.
                 if pos == usize::MAX || pos < row_start {
                     marker[j] = c.cols.len();
                     c.cols.push(j as u32);
