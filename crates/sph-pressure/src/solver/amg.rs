@@ -483,8 +483,13 @@ impl Amg {
         }
         {
             let l = &mut self.levels[lvl];
-            l.x.fill(0.0);
-            for _ in 0..SWEEPS {
+            // First sweep from x = 0: x = ω D⁻¹ b, the same numbers without the product A·0.
+            let w = l.omega;
+            l.x.par_iter_mut()
+                .zip(l.b.par_iter().zip(l.inv_diag.par_iter()))
+                .with_min_len(4096)
+                .for_each(|(x, (b, d))| *x = w * d * b);
+            for _ in 1..SWEEPS {
                 jacobi(l);
             }
             // res = b − A x
