@@ -483,14 +483,17 @@ impl Amg {
         }
         {
             let l = &mut self.levels[lvl];
-            // First sweep from x = 0: x = ω D⁻¹ b, the same numbers without the product A·0.
-            let w = l.omega;
-            l.x.par_iter_mut()
-                .zip(l.b.par_iter().zip(l.inv_diag.par_iter()))
-                .with_min_len(4096)
-                .for_each(|(x, (b, d))| *x = w * d * b);
-            for _ in 1..SWEEPS {
-                jacobi(l);
+            for sweep in 0..SWEEPS {
+                if sweep == 0 {
+                    // From x = 0: x = ω D⁻¹ b, the same numbers without the product A·0.
+                    let w = l.omega;
+                    l.x.par_iter_mut()
+                        .zip(l.b.par_iter().zip(l.inv_diag.par_iter()))
+                        .with_min_len(4096)
+                        .for_each(|(x, (b, d))| *x = w * d * b);
+                } else {
+                    jacobi(l);
+                }
             }
             // res = b − A x
             l.a.matvec(&l.x, &mut l.res);
