@@ -25,7 +25,6 @@
 //! operator, as BiCGSTAB needs. Setup is rebuilt for every solve (the matrix changes every
 //! step); its buffers are kept between solves.
 
-use crate::SolveError;
 use crate::csr::{for_each_row_mut, matvec};
 use crate::solver::CsrSystem;
 use rayon::prelude::*;
@@ -167,8 +166,6 @@ pub(crate) struct Amg {
     /// Levels in use (`levels` keeps spare buffers beyond).
     depth: usize,
     coarse: DenseLu,
-    /// `1 / a_ii` of the original matrix (the row scaling).
-    inv_diag0: Vec<f64>,
     // Setup scratch.
     agg: Vec<u32>,
     dense: Vec<bool>,
@@ -188,21 +185,9 @@ impl Amg {
             .collect()
     }
 
-    /// Builds the hierarchy for `a`. Errors on a zero or non-finite diagonal.
-    pub(crate) fn setup(
-        &mut self,
-        a: &CsrSystem<'_>,
-        diag_pos: &[usize],
-    ) -> Result<(), SolveError> {
+    /// Builds the hierarchy for `a`, whose inverse diagonal (all finite) is `inv_diag`.
+    pub(crate) fn setup(&mut self, a: &CsrSystem<'_>, inv_diag: &[f64]) {
         let n = a.n();
-        self.inv_diag0.clear();
-        for i in 0..n {
-            let d = a.values[diag_pos[i]];
-            if d == 0.0 || !d.is_finite() {
-                return Err(SolveError::SingularPivot { row: i, value: d });
-            }
-            self.inv_diag0.push(1.0 / d);
-        }
         if self.levels.is_empty() {
             self.levels.push(Level::default());
         }
@@ -210,14 +195,13 @@ impl Amg {
         {
             let l0 = &mut self.levels[0];
             l0.a.clear(n);
-            l0.a.offsets.clear();
+            l0.a.offsets.truncate(0);
             l0.a.offsets.extend_from_slice(a.offsets);
             l0.a.cols.extend_from_slice(a.cols);
             l0.a.values.extend_from_slice(a.values);
-            let inv = &self.inv_diag0;
             for_each_row_mut(a.offsets, &mut l0.a.values, &|i, row| {
                 for v in row {
-                    *v *= inv[i];
+                    *v *= inv_diag[i];
                 }
             });
         }
@@ -254,7 +238,6 @@ impl Amg {
             l.b.resize(m, 0.0);
             l.res.resize(m, 0.0);
         }
-        Ok(())
     }
 
     /// Inverse diagonal and smoothing weight of a level.
@@ -386,9 +369,7 @@ impl Amg {
 
     /// `P = (I − ω Â) P₀` (dense columns ignored, dense rows unsmoothed) and `R = Pᵀ`.
     fn build_prolongation(&mut self, lvl: usize, nc: usize) {
-        let (fine, rest) = self.levels.split_at_mut(lvl + 1);
-        let l = &mut fine[lvl];
-        let _ = rest;
+        let l = &mut self.levels[lvl];
         let a = &l.a;
         let m = a.nrows();
         let omega = l.omega;
@@ -456,9 +437,8 @@ impl Amg {
         spgemm(&l.r, &self.ap, &mut coarse[0].a, &mut self.marker);
     }
 
-    /// `z = M⁻¹ r`: one V-cycle on the scaled residual `D⁻¹ r`.
-    pub(crate) fn apply(&mut self, r: &[f64], z: &mut [f64]) {
-        let inv = &self.inv_diag0;
+    /// `z = M⁻¹ r`: one V-cycle on the scaled residual `D⁻¹ r` (`inv_diag` as in `setup`).
+    pub(crate) fn apply(&mut self, inv: &[f64], r: &[f64], z: &mut [f64]) {
         let l0 = &mut self.levels[0];
         l0.b.par_iter_mut()
             .zip(r.par_iter().zip(inv.par_iter()))

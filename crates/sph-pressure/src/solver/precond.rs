@@ -47,18 +47,20 @@ impl PrecondState {
             };
             self.diag_pos.push(a.offsets[i] + k);
         }
-        match kind {
-            Preconditioner::Jacobi => {
-                self.inv_diag.clear();
-                for i in 0..n {
-                    let d = a.values[self.diag_pos[i]];
-                    if d == 0.0 || !d.is_finite() {
-                        return Err(SolveError::SingularPivot { row: i, value: d });
-                    }
-                    self.inv_diag.push(1.0 / d);
+        if matches!(kind, Preconditioner::Jacobi | Preconditioner::Amg) {
+            // Jacobi's M⁻¹, and AMG's row scaling.
+            self.inv_diag.clear();
+            for i in 0..n {
+                let d = a.values[self.diag_pos[i]];
+                if d == 0.0 || !d.is_finite() {
+                    return Err(SolveError::SingularPivot { row: i, value: d });
                 }
+                self.inv_diag.push(1.0 / d);
             }
-            Preconditioner::Amg => self.amg.setup(a, &self.diag_pos)?,
+        }
+        match kind {
+            Preconditioner::Jacobi => {}
+            Preconditioner::Amg => self.amg.setup(a, &self.inv_diag),
             Preconditioner::Ilu0 => {
                 self.lu.clear();
                 self.lu.extend_from_slice(a.values);
@@ -110,7 +112,7 @@ impl PrecondState {
         z: &mut [f64],
     ) {
         match kind {
-            Preconditioner::Amg => self.amg.apply(r, z),
+            Preconditioner::Amg => self.amg.apply(&self.inv_diag, r, z),
             Preconditioner::Jacobi => {
                 z.par_iter_mut()
                     .zip(r.par_iter().zip(self.inv_diag.par_iter()))

@@ -296,7 +296,6 @@ sph_core::dim_tests! {
             }
         }
         let (ij, ia) = (iters[0], iters[1]);
-        eprintln!("{}D: AMG {ia}, Jacobi {ij} iterations", D::DIM);
         let factor = if D::DIM == 2 { 4 } else { 2 };
         assert!(factor * ia <= ij, "AMG {ia} vs Jacobi {ij} iterations");
     }
