@@ -194,7 +194,7 @@ pub fn run_scene(
     }
 }
 
-const CAVITY_HEADER: &str = "scheme,step,t,kinetic_energy,density_error_rms,density_change_rms,density_error_max,mean_pressure,pressure_range,wall_penetrations,solver_iterations,max_div_u,gauge_multiplier,det_f_min,det_f_mean,det_f_max,step_seconds,ghia_u_rms,ghia_u_max,ghia_v_rms,ghia_v_max";
+const CAVITY_HEADER: &str = "scheme,step,t,kinetic_energy,density_error_rms,density_change_rms,density_error_max,mean_pressure,pressure_range,wall_penetrations,solver_iterations,max_div_u,gauge_multiplier,det_f_min,det_f_mean,det_f_max,step_seconds,ghia_u_rms,ghia_u_max,ghia_v_rms,ghia_v_max,wall_intrusion";
 
 fn cavity_row(r: &cavity::CavityRecord) -> String {
     let det = r.det_f.unwrap_or_default();
@@ -205,7 +205,7 @@ fn cavity_row(r: &cavity::CavityRecord) -> String {
         )
     });
     format!(
-        "{},{},{:.9e},{:.9e},{:.6e},{:.6e},{:.6e},{:.3e},{:.6e},{},{},{:.3e},{:.3e},{:.9e},{:.9e},{:.9e},{:.4e},{ghia}",
+        "{},{},{:.9e},{:.9e},{:.6e},{:.6e},{:.6e},{:.3e},{:.6e},{},{},{:.3e},{:.3e},{:.9e},{:.9e},{:.9e},{:.4e},{ghia},{:.4e}",
         r.scheme.name(),
         r.step,
         r.t,
@@ -223,6 +223,7 @@ fn cavity_row(r: &cavity::CavityRecord) -> String {
         det.mean,
         det.max,
         r.step_seconds,
+        r.wall_intrusion,
     )
 }
 
@@ -264,7 +265,7 @@ impl SchemeOutput {
     ) -> anyhow::Result<Self> {
         let continuing = resume_step.is_some() && csv_path.exists();
         if let (true, Some(step)) = (continuing, resume_step) {
-            truncate_csv_after_step(&csv_path, step)?;
+            truncate_csv_after_step(&csv_path, header, step)?;
         }
         let file = std::fs::OpenOptions::new()
             .create(true)
@@ -350,10 +351,23 @@ impl SchemeOutput {
 }
 
 /// Rewrites the CSV at `path` without its data rows whose `step` column (the second) exceeds
-/// `step` (atomically: a temporary file renamed over it). Rows that do not parse are kept.
-fn truncate_csv_after_step(path: &Path, step: usize) -> anyhow::Result<()> {
+/// `step` (atomically: a temporary file renamed over it). Rows that do not parse are kept. A CSV
+/// whose header is not `header` (written by another version, with other columns) is an error
+/// and is left as it is: appending rows of a different layout would corrupt it.
+fn truncate_csv_after_step(path: &Path, header: &str, step: usize) -> anyhow::Result<()> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let found = text.lines().next().unwrap_or("");
+    if found != header {
+        anyhow::bail!(
+            "cannot resume into {}: its header has other columns than this version writes \
+             (found {:?}, expected {:?}); move the CSV away or resume with --out in a fresh \
+             directory holding a copy of the checkpoint",
+            path.display(),
+            found,
+            header
+        );
+    }
     let mut kept = String::with_capacity(text.len());
     for (i, line) in text.lines().enumerate() {
         let later = i > 0
@@ -481,7 +495,7 @@ fn run_cavity<D: Dim>(
             )
         });
         println!(
-            "  {name} {:<19} fluid={} walls={} steps={steps} t={:.3} KE {:.4e} ρ̂ rms {:.3e} (Δ {:.3e}) max pen {} steady {}  {ghia}  iters/step {iters:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{wall_s:.1} s]",
+            "  {name} {:<19} fluid={} walls={} steps={steps} t={:.3} KE {:.4e} ρ̂ rms {:.3e} (Δ {:.3e}) max pen {} (depth {:.2} dx) steady {}  {ghia}  iters/step {iters:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{wall_s:.1} s]",
             scheme.name(),
             run.particles.0,
             run.particles.1,
@@ -490,6 +504,7 @@ fn run_cavity<D: Dim>(
             last.density_error_rms,
             last.density_change_rms,
             run.max_penetrations(),
+            run.max_intrusion() / scene.dx,
             run.steady_time.map_or("no".into(), |t| format!("t={t:.2}")),
             per_step,
             n as f64 / per_step,
@@ -702,9 +717,14 @@ mod tests {
             "scheme,step,t\ndg,0,0\ndg,800,1\ndg,900,1.1\ndg,1100,1.4\n",
         )
         .unwrap();
-        truncate_csv_after_step(&path, 800).unwrap();
+        truncate_csv_after_step(&path, "scheme,step,t", 800).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         assert_eq!(text, "scheme,step,t\ndg,0,0\ndg,800,1\n");
+        // A CSV of another layout is refused and left untouched.
+        let err = truncate_csv_after_step(&path, "scheme,step,t,extra", 0).unwrap_err();
+        assert!(err.to_string().contains("other columns"), "{err}");
+        let after = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(after, text);
         let _ = std::fs::remove_dir_all(&dir);
     }
 

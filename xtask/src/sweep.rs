@@ -118,7 +118,10 @@ fn cavity_point(scene: &Scene, refs: &References) -> Point {
             if pen == 0 {
                 "ok".to_string()
             } else {
-                format!("{pen} wall penetrations")
+                format!(
+                    "{pen} wall penetrations ({:.2} dx deep)",
+                    run.max_intrusion() / scene.dx
+                )
             },
         ))
     })

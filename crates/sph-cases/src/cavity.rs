@@ -133,6 +133,8 @@ pub struct CavityRecord {
     pub pressure_range: f64,
     /// Fluid particles outside the cavity.
     pub wall_penetrations: usize,
+    /// How far the furthest fluid particle lies outside the cavity (0 if none does).
+    pub wall_intrusion: f64,
     /// Solver iterations of the last step (0 for the initial record).
     pub solver_iterations: usize,
     /// max |∇·u| after the last projection.
@@ -206,6 +208,14 @@ impl CavityRun {
             .map(|r| r.wall_penetrations)
             .max()
             .unwrap_or(0)
+    }
+
+    /// The deepest any fluid particle lay outside the cavity at any record.
+    pub fn max_intrusion(&self) -> f64 {
+        self.records
+            .iter()
+            .map(|r| r.wall_intrusion)
+            .fold(0.0, f64::max)
     }
 }
 
@@ -318,6 +328,7 @@ fn record<D: Dim>(
         mean_pressure: mean_p,
         pressure_range: pmax - pmin,
         wall_penetrations: sim.wall_penetrations(),
+        wall_intrusion: sim.wall_intrusion(),
         solver_iterations: report.map_or(0, |r| r.solve.iterations),
         max_div_u: report.map_or(0.0, |r| r.max_div_u),
         gauge_multiplier: report.map_or(0.0, |r| r.gauge_multiplier),

@@ -187,6 +187,15 @@ impl<D: Dim> Simulation<D> {
             .map_or(0, |w| w.penetrations(&self.particles.positions))
     }
 
+    /// Depth of the furthest fluid particle outside the wall container (0 without walls or
+    /// when every fluid particle is inside), see [`Walls::max_intrusion`].
+    pub fn wall_intrusion(&self) -> f64 {
+        self.engine
+            .walls
+            .as_ref()
+            .map_or(0.0, |w| w.max_intrusion(&self.particles.positions))
+    }
+
     /// Multiplier of the mean-zero pressure gauge in the last step (0 unless the domain is
     /// closed): the part of the pressure equation's right-hand side incompatible with a
     /// constant null space.

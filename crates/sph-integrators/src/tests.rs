@@ -201,3 +201,33 @@ sph_core::dim_tests! {
         assert!(checked >= 2 * n as usize);
     }
 }
+
+sph_core::dim_tests! {
+    fn penetrations_and_intrusion_depth_measure_the_container_box<D>() {
+        // Container [0, 1]^D. Fluid: one particle inside, one 0.01 past the upper face of the
+        // last axis, one 0.3 below the lower face of the first axis and 0.05 past the upper face
+        // of the last one (its depth is the larger). The wall particle far outside is not fluid.
+        let inside = D::Vector::from_fn(|_| 0.5);
+        let mut a = inside;
+        a.set(D::DIM - 1, 1.01);
+        let mut b = inside;
+        b.set(0, -0.3);
+        b.set(D::DIM - 1, 1.05);
+        let wall = D::Vector::from_fn(|_| 5.0);
+        let walls = Walls::<D> {
+            model: WallModel::DummyParticles,
+            first: 3,
+            velocity: vec![D::Vector::ZERO],
+            mirror: vec![D::Vector::from_fn(|_| -1.0)],
+            lo: D::Vector::ZERO,
+            hi: D::Vector::from_fn(|_| 1.0),
+        };
+        let x = [inside, a, b, wall];
+        assert_eq!(walls.penetrations(&x), 2);
+        assert!((walls.max_intrusion(&x) - 0.3).abs() < 1e-12);
+        assert_eq!(walls.penetrations(&[inside, inside, inside, wall]), 0);
+        assert_eq!(walls.max_intrusion(&[inside, inside, inside, wall]), 0.0);
+        let d = walls.max_intrusion(&[inside, a, inside, wall]);
+        assert!((d - 0.01).abs() < 1e-12, "{d}");
+    }
+}

@@ -79,6 +79,21 @@ impl<D: Dim> Walls<D> {
             .count()
     }
 
+    /// How far the furthest fluid particle lies outside the container box (0 when none does):
+    /// `max_f max_k max(lo_k − x_fk, x_fk − hi_k, 0)`. Tells a particle in the half-spacing gap
+    /// between the wall line and the first wall layer (depth < Δp/2) from one that has passed
+    /// the wall particles.
+    pub fn max_intrusion(&self, positions: &[D::Vector]) -> f64 {
+        positions[..self.first]
+            .iter()
+            .map(|x| {
+                (0..D::DIM)
+                    .map(|k| (self.lo.get(k) - x.get(k)).max(x.get(k) - self.hi.get(k)))
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// No-slip (viscous) wall velocity, Adami et al. (2012) Eqs. (22)–(23):
     /// `u_w = 2 u_wall − ũ_w`, `ũ_w = Σ_f u_f W_wf / Σ_f W_wf` (fluid neighbours `f` from
     /// `ctx`, whose particles are this simulation's). Writes one entry per wall particle.
