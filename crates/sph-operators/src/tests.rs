@@ -335,3 +335,31 @@ sph_core::dim_tests! {
         }
     }
 }
+
+/// `∂(∇C·e)/∂δ` of the centre particle of a lattice moved by `δ = 0.1 Δp` along `e` (the
+/// restoring strength of Lind shifting, in units of 1/Δp²), for a kernel with `h = 1.3 Δp`.
+fn shifting_stiffness<D: Dim>(kind: KernelKind) -> f64 {
+    let mut lat = Lattice::<D>::new(kind, 1.3, 0.0);
+    let c = lat.centre();
+    let delta = 0.1 * lat.dx;
+    let e = D::Vector::from_fn(|k| if k == 0 { 1.0 } else { 0.0 });
+    lat.positions[c] += e * delta;
+    let mut g = vec![D::Vector::ZERO; lat.len()];
+    lat.with_ctx(|ctx| concentration_gradient(ctx, lat.dx, &mut g));
+    g[c].dot(e) / delta * lat.dx * lat.dx
+}
+
+sph_core::dim_tests! {
+    fn quintic_shifting_restores_more_weakly_than_wendland_at_equal_h<D>() {
+        // A particle pushed off its lattice site gets ∇C pointing at the site it left (the
+        // shift −D∇C moves it back). At h = 1.3 Δp the quintic's wider support (3h against 2h)
+        // makes that response several times weaker than Wendland C2's: 0.386 against 1.349 per
+        // Δp² of displacement in 2D (ratio 3.5), 0.161 against 0.712 in 3D (ratio 4.4). That is
+        // why a quintic cavity needs a larger shifting coefficient A than a Wendland one to
+        // keep particles off the walls (README, density study).
+        let q = shifting_stiffness::<D>(KernelKind::QuinticSpline);
+        let w = shifting_stiffness::<D>(KernelKind::WendlandC2);
+        assert!(q > 0.0 && w > 0.0, "∇C must point back to the site: quintic {q}, Wendland {w}");
+        assert!(w > 2.5 * q, "Wendland {w} vs quintic {q}");
+    }
+}
