@@ -105,7 +105,8 @@ pub struct ValidateArgs {
     /// Resolution / duration preset.
     #[arg(long, value_enum, default_value = "quick")]
     pub preset: Preset,
-    /// Run only the cases whose name contains this string.
+    /// Run only the cases whose kind (e.g. `lid_driven_cavity`, `kernels`) or scene file stem
+    /// (e.g. `cavity_density_quintic`) contains this string.
     #[arg(long)]
     pub case: Option<String>,
     /// Output directory for reports and frames.

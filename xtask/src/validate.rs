@@ -36,12 +36,12 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
     scenes.sort();
     for path in scenes {
         let scene = crate::run::load_scene(&path)?;
-        if !wants(scene.case.name()) {
+        let name = crate::run::scene_stem(&path);
+        if !wants(scene.case.name()) && !wants(&name) {
             continue;
         }
         println!("{} ({:?} preset)", path.display(), args.preset);
         let t = Instant::now();
-        let name = crate::run::scene_stem(&path);
         let result = crate::run::run_scene(
             &scene,
             &name,
