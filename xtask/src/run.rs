@@ -495,7 +495,7 @@ fn run_cavity<D: Dim>(
             )
         });
         println!(
-            "  {name} {:<19} fluid={} walls={} steps={steps} t={:.3} KE {:.4e} ρ̂ rms {:.3e} (Δ {:.3e}) max pen {} (depth {:.2} dx) steady {}  {ghia}  iters/step {iters:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{wall_s:.1} s]",
+            "  {name} {:<19} fluid={} walls={} steps={steps} t={:.3} KE {:.4e} ρ̂ rms {:.3e} (Δ {:.3e}) max pen {} (depth {:.3} dx) steady {}  {ghia}  iters/step {iters:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{wall_s:.1} s]",
             scheme.name(),
             run.particles.0,
             run.particles.1,

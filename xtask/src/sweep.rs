@@ -119,7 +119,7 @@ fn cavity_point(scene: &Scene, refs: &References) -> Point {
                 "ok".to_string()
             } else {
                 format!(
-                    "{pen} wall penetrations ({:.2} dx deep)",
+                    "{pen} wall penetrations ({:.3} dx deep)",
                     run.max_intrusion() / scene.dx
                 )
             },
