@@ -71,26 +71,29 @@ pub enum WallError {
 }
 
 impl<D: Dim> Walls<D> {
+    /// How far `x` lies outside the container box: `max_k max(lo_k − x_k, x_k − hi_k, 0)`.
+    fn outside(&self, x: D::Vector) -> f64 {
+        (0..D::DIM)
+            .map(|k| (self.lo.get(k) - x.get(k)).max(x.get(k) - self.hi.get(k)))
+            .fold(0.0, f64::max)
+    }
+
     /// Number of fluid particles outside the container box (each one has crossed a wall).
     pub fn penetrations(&self, positions: &[D::Vector]) -> usize {
         positions[..self.first]
             .iter()
-            .filter(|x| (0..D::DIM).any(|k| x.get(k) < self.lo.get(k) || x.get(k) > self.hi.get(k)))
+            .filter(|x| self.outside(**x) > 0.0)
             .count()
     }
 
-    /// How far the furthest fluid particle lies outside the container box (0 when none does):
-    /// `max_f max_k max(lo_k − x_fk, x_fk − hi_k, 0)`. Tells a particle in the half-spacing gap
+    /// How far the furthest fluid particle lies outside the container box (0 when none does).
+    /// Tells a particle in the half-spacing gap
     /// between the wall line and the first wall layer (depth < Δp/2) from one that has passed
     /// the wall particles.
     pub fn max_intrusion(&self, positions: &[D::Vector]) -> f64 {
         positions[..self.first]
             .iter()
-            .map(|x| {
-                (0..D::DIM)
-                    .map(|k| (self.lo.get(k) - x.get(k)).max(x.get(k) - self.hi.get(k)))
-                    .fold(0.0, f64::max)
-            })
+            .map(|x| self.outside(*x))
             .fold(0.0, f64::max)
     }
 

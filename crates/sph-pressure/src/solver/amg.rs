@@ -194,9 +194,8 @@ impl Amg {
         // Fine level: Â = D⁻¹ A.
         {
             let l0 = &mut self.levels[0];
-            l0.a.clear(n);
-            l0.a.offsets.truncate(0);
-            l0.a.offsets.extend_from_slice(a.offsets);
+            l0.a.clear(n); // offsets = [0]; a CSR's offsets start at 0
+            l0.a.offsets.extend_from_slice(&a.offsets[1..]);
             l0.a.cols.extend_from_slice(a.cols);
             l0.a.values.extend_from_slice(a.values);
             for_each_row_mut(a.offsets, &mut l0.a.values, &|i, row| {
