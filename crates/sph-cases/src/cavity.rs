@@ -2,7 +2,9 @@
 //!
 //! Unit square (2D) or cube (3D) of fluid on the lattice `(i + ½) dx`, surrounded by fixed dummy
 //! wall particles on the same lattice ([`WallModel::DummyParticles`]); the wall particles above
-//! `y = 1` over the cavity's width (the lid; the corner blocks stay at rest) move with `(U, 0, 0)`. Effects: viscosity
+//! `y = 1` over the cavity's width (the lid; the corner blocks stay at rest) move with `(U, 0, 0)`;
+//! the scene's `wall_condition` picks the [`WallCondition`](sph_integrators::WallCondition).
+//! Effects: viscosity
 //! `ν = U·1/Re`, plus whatever the scene declares (shifting); no free surface, so the pressure
 //! carries the mean-zero gauge.
 //!
@@ -97,6 +99,7 @@ pub fn setup<D: Dim>(scene: &Scene) -> Result<CavitySetup<D>, CaseError> {
     let particles = ParticleSet::<D>::from_positions(fluid, dx.powi(D::DIM as i32), config.rho0);
     let walls = Walls {
         model: WallModel::DummyParticles,
+        condition: spec.wall_condition,
         first,
         velocity: wall_u,
         mirror,

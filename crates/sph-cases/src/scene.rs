@@ -19,6 +19,7 @@
 
 use crate::CaseError;
 use serde::{Deserialize, Serialize};
+use sph_integrators::WallCondition;
 use sph_integrators::{Effects, FreeSurface, SchemeKind, Shifting, SimConfig, Viscosity};
 use sph_kernels::KernelKind;
 use sph_operators::HessianForm;
@@ -94,6 +95,11 @@ pub struct CavitySpec {
     pub ghia_tolerance: Option<[f64; 2]>,
     /// Whether the Ghia deviation is a pass/fail check (it is always measured). Default true.
     pub check_ghia: Option<bool>,
+    /// How the walls' no-penetration condition enters the projection: `"continuation"`
+    /// (default) or `"reflection"` (the condition of the runs before 2026-11-30), see
+    /// [`WallCondition`].
+    #[serde(default)]
+    pub wall_condition: WallCondition,
 }
 
 fn one() -> f64 {

@@ -37,4 +37,4 @@ pub use report::{DetFStats, StepReport};
 pub use schemes::{DgIsph, EulerIsph, Integrator, PredictorCorrectorIsph, Scheme, SchemeKind};
 pub use simulation::Simulation;
 pub use time_step::TimeStep;
-pub use walls::{WallError, WallModel, Walls};
+pub use walls::{WallCondition, WallError, WallModel, Walls};

@@ -92,11 +92,21 @@ pub(crate) fn project<D: Dim>(
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     let mut hessian_fallbacks = 0;
     let nf = e.fluid;
-    // The divergence (and A) read the walls' free-slip velocity, see `WallModel`.
+    let g = e.config.effects.gravity.unwrap_or([0.0; 3]);
+    let gravity = D::Vector::from_fn(|k| g[k]);
+    // The divergence (and A) read the walls' velocity, the wall rows their Neumann data, see
+    // `WallCondition`.
     let u_star: &[D::Vector] = match &e.walls {
         Some(w) => {
             e.u_div.copy_from_slice(u_star);
-            w.free_slip_velocity(&ctx, u_star, &mut e.u_div[nf..]);
+            w.boundary_data(
+                &ctx,
+                u_star,
+                gravity,
+                dt,
+                &mut e.u_div[nf..],
+                Some(&mut e.wall_grad),
+            );
             &e.u_div
         }
         None => u_star,
@@ -143,16 +153,8 @@ pub(crate) fn project<D: Dim>(
         }
     }
     if nf < ctx.len() {
-        let g = e.config.effects.gravity.unwrap_or([0.0; 3]);
-        assemble_wall_rows(
-            &ctx,
-            nf,
-            densities,
-            D::Vector::from_fn(|k| g[k]),
-            &mut e.matrix,
-            &mut e.rhs,
-        )
-        .map_err(|source| StepError::Assembly { step, t, source })?;
+        assemble_wall_rows(&ctx, nf, densities, &e.wall_grad, &mut e.matrix, &mut e.rhs)
+            .map_err(|source| StepError::Assembly { step, t, source })?;
     }
     for (p, d) in pressures.iter_mut().zip(&e.dirichlet) {
         if *d {
@@ -179,7 +181,7 @@ pub(crate) fn project<D: Dim>(
         *un = *us - *g * (dt / rho);
     }
     if let Some(w) = &e.walls {
-        w.free_slip_velocity(&ctx, &u_new[..nf], &mut e.u_div[nf..]);
+        w.boundary_data(&ctx, &u_new[..nf], gravity, dt, &mut e.u_div[nf..], None);
         u_new[nf..].copy_from_slice(&e.u_div[nf..]);
     }
     divergence(&ctx, u_new, l, &mut e.scalar);

@@ -27,6 +27,8 @@ pub(crate) struct Engine<D: Dim> {
     pub(crate) walls: Option<Walls<D>>,
     /// Velocities the divergence reads (fluid: u; walls: free-slip mirror).
     pub(crate) u_div: Vec<D::Vector>,
+    /// Neumann data `∇p/ρ` of each wall particle's pressure row.
+    pub(crate) wall_grad: Vec<D::Vector>,
     pub(crate) kernel: AnyKernel<D>,
     pub(crate) search: AnySearch<D>,
     pub(crate) neighbors: NeighborList,
@@ -130,6 +132,7 @@ impl<D: Dim> Simulation<D> {
             fluid: particles.len(),
             walls: None,
             u_div: Vec::new(),
+            wall_grad: Vec::new(),
             config,
         };
         let buf = Buffers {
@@ -257,8 +260,9 @@ impl<D: Dim> Simulation<D> {
         e.rhs.resize(n, 0.0);
         e.grad_p.resize(n, D::Vector::ZERO);
         e.scalar.resize(n, 0.0);
-        if e.walls.is_some() {
+        if let Some(w) = &e.walls {
             e.u_div.resize(n, D::Vector::ZERO);
+            e.wall_grad.resize(w.velocity.len(), D::Vector::ZERO);
         }
         let b = &mut self.buf;
         b.u_star.resize(n, D::Vector::ZERO);

@@ -142,11 +142,12 @@ fn inconsistent_particles_are_rejected() {
 }
 
 sph_core::dim_tests! {
-    fn wall_velocities_mirror_a_uniform_flow<D>() {
+    fn wall_data_of_a_uniform_flow<D>() {
         // Fluid on the lattice below y = 1 with a uniform velocity u₀; three layers of lid
         // particles above it moving with (1, 0, 0), mirror (1, −1, 1). The Shepard average of a
-        // uniform field is exact, so: free slip (divergence) = u_wall + S(u₀ − u_wall) =
-        // (u₀x, −u₀y, u₀z); no slip (viscosity) = 2u_wall − u₀.
+        // uniform field is exact, so: no slip (viscosity) = 2u_wall − u₀; Reflection: divergence
+        // velocity u_wall + S(u₀ − u_wall) = (u₀x, −u₀y, u₀z), Neumann data g; Continuation:
+        // divergence velocity u₀, Neumann data (g_x, (u₀ − u_wall)_y/Δt, g_z).
         use sph_kernels::Kernel;
         use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
         let dx = 0.1;
@@ -174,8 +175,9 @@ sph_core::dim_tests! {
         let ctx = sph_operators::SphContext::new(&fluid, &vols, &nl, &kernel);
         let u0 = D::Vector::from_fn(|c| [0.3, 0.2, 0.1][c]);
         let lid = D::Vector::from_fn(|c| if c == 0 { 1.0 } else { 0.0 });
-        let walls = Walls::<D> {
+        let mut walls = Walls::<D> {
             model: WallModel::DummyParticles,
+            condition: WallCondition::Reflection,
             first,
             velocity: vec![lid; nw],
             mirror: vec![D::Vector::from_fn(|c| if c == 1 { -1.0 } else { 1.0 }); nw],
@@ -183,19 +185,30 @@ sph_core::dim_tests! {
             hi: D::Vector::from_fn(|_| 1.0),
         };
         let u = vec![u0; fluid.len()];
-        let (mut free, mut no) = (vec![D::Vector::ZERO; nw], vec![D::Vector::ZERO; nw]);
-        walls.free_slip_velocity(&ctx, &u, &mut free);
+        let (g, dt) = (D::Vector::from_fn(|c| -(c as f64) - 1.0), 0.1);
+        let mut no = vec![D::Vector::ZERO; nw];
         walls.no_slip_velocity(&ctx, &u, &mut no);
-        let want_free = D::Vector::from_fn(|c| if c == 1 { -u0.get(c) } else { u0.get(c) });
+        let (mut refl, mut refl_g) = (vec![D::Vector::ZERO; nw], vec![D::Vector::ZERO; nw]);
+        walls.boundary_data(&ctx, &u, g, dt, &mut refl, Some(&mut refl_g));
+        walls.condition = WallCondition::Continuation;
+        let (mut cont, mut cont_g) = (vec![D::Vector::ZERO; nw], vec![D::Vector::ZERO; nw]);
+        walls.boundary_data(&ctx, &u, g, dt, &mut cont, Some(&mut cont_g));
+        let want_refl = D::Vector::from_fn(|c| if c == 1 { -u0.get(c) } else { u0.get(c) });
+        let want_cont_g = D::Vector::from_fn(|c| if c == 1 { u0.get(c) / dt } else { g.get(c) });
         let want_no = lid * 2.0 - u0;
+        let close = |a: D::Vector, b: D::Vector| (a - b).length() < 1e-12;
         let mut checked = 0;
         for k in 0..nw {
             if ctx.neighbors_of(first + k).any(|j| j < first) {
-                assert!((free[k] - want_free).length() < 1e-12, "free slip {k}: {:?}", free[k].to_array3());
-                assert!((no[k] - want_no).length() < 1e-12, "no slip {k}: {:?}", no[k].to_array3());
+                assert!(close(refl[k], want_refl), "reflection {k}: {:?}", refl[k].to_array3());
+                assert!(close(refl_g[k], g), "reflection data {k}: {:?}", refl_g[k].to_array3());
+                assert!(close(cont[k], u0), "continuation {k}: {:?}", cont[k].to_array3());
+                assert!(close(cont_g[k], want_cont_g), "continuation data {k}: {:?}", cont_g[k].to_array3());
+                assert!(close(no[k], want_no), "no slip {k}: {:?}", no[k].to_array3());
                 checked += 1;
             } else {
-                assert_eq!(free[k], lid);
+                assert_eq!(refl[k], lid);
+                assert_eq!(cont[k], lid);
             }
         }
         assert!(checked >= 2 * n as usize);
@@ -216,6 +229,7 @@ sph_core::dim_tests! {
         let wall = D::Vector::from_fn(|_| 5.0);
         let walls = Walls::<D> {
             model: WallModel::DummyParticles,
+            condition: WallCondition::Continuation,
             first: 3,
             velocity: vec![D::Vector::ZERO],
             mirror: vec![D::Vector::from_fn(|_| -1.0)],

@@ -10,28 +10,31 @@ use sph_kernels::Kernel;
 use sph_operators::SphContext;
 
 /// Overwrites the rows `first_wall..n` (the wall particles) with the pressure extrapolation of
-/// Adami, Hu & Adams (2012), J. Comput. Phys. 231, 7057, Eq. (27), for walls at rest:
+/// Adami, Hu & Adams (2012), J. Comput. Phys. 231, 7057, Eq. (27):
 ///
 /// ```text
-/// p_w − Σ_f p_f W_wf / Σ_f W_wf = Σ_f ρ_f (g·(x_w − x_f)) W_wf / Σ_f W_wf
+/// p_w − Σ_f p_f W_wf / Σ_f W_wf = Σ_f ρ_f (g_w·(x_w − x_f)) W_wf / Σ_f W_wf
 /// ```
 ///
-/// (sums over the fluid neighbours `f < first_wall` of `w`). This is the discrete homogeneous
-/// Neumann condition `∂p/∂n = ρ g·n` of a wall at rest; the wall pressures are unknowns of the
-/// same linear system, so the fluid rows' Laplacian (or DG Hessian) reaches them through the
-/// ordinary neighbour pattern. A wall particle with no fluid neighbour gets `p_w = 0`; it never
-/// influences a fluid particle, since it is further than one support radius from all of them.
+/// (sums over the fluid neighbours `f < first_wall` of `w`), where `g_w = wall_gradient[w −
+/// first_wall]` is the pressure gradient per density prescribed at the wall particle — Adami's
+/// `g − a_w`, or the projection's Neumann data (see `sph_integrators::WallCondition`). The wall
+/// pressures are unknowns of the same linear system, so the fluid rows' Laplacian (or DG
+/// Hessian) reaches them through the ordinary neighbour pattern. A wall particle with no fluid
+/// neighbour gets `p_w = 0`; it never influences a fluid particle, since it is further than one
+/// support radius from all of them.
 pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     first_wall: usize,
     densities: &[f64],
-    gravity: D::Vector,
+    wall_gradient: &[D::Vector],
     matrix: &mut CsrMatrix,
     rhs: &mut [f64],
 ) -> Result<(), PressureError> {
     let nl = ctx.neighbors;
     let n = ctx.len();
     assert!(first_wall <= n && densities.len() == n && rhs.len() == n);
+    assert_eq!(wall_gradient.len(), n - first_wall);
     assert_eq!(matrix.values.len(), nl.nnz());
     // Row w: −W_wf / Σ_f W_wf on the fluid neighbours f, 1 on the diagonal.
     for_each_row_mut(nl.offsets(), &mut matrix.values, &|w, row| {
@@ -61,22 +64,23 @@ pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
             .expect("neighbour rows contain the particle");
         row[diag] = 1.0;
     });
-    // rhs_w = Σ_f a_wf ρ_f g·(x_w − x_f) with the row's weights a_wf = −(row value).
+    // rhs_w = Σ_f a_wf ρ_f g_w·(x_w − x_f) with the row's weights a_wf = −(row value).
     let values = &matrix.values;
     rhs[first_wall..]
         .par_iter_mut()
+        .zip(wall_gradient)
         .enumerate()
         .with_min_len(256)
-        .for_each(|(k, r)| {
+        .for_each(|(k, (r, &g))| {
             let w = first_wall + k;
             *r = 0.0;
-            if gravity != D::Vector::ZERO {
+            if g != D::Vector::ZERO {
                 let xw = ctx.positions[w];
                 let a = &values[nl.offsets()[w]..nl.offsets()[w + 1]];
                 for (&v, &j) in a.iter().zip(nl.row(w)) {
                     let j = j as usize;
                     if j < first_wall {
-                        *r -= v * densities[j] * gravity.dot(xw - ctx.positions[j]);
+                        *r -= v * densities[j] * g.dot(xw - ctx.positions[j]);
                     }
                 }
             }

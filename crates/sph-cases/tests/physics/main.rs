@@ -4,3 +4,4 @@ mod cavity;
 mod drop_runs;
 mod section3;
 mod step_one;
+mod walls;
