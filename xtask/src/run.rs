@@ -56,6 +56,75 @@ pub fn load_references(dir: Option<&Path>) -> anyhow::Result<References> {
     Ok(refs)
 }
 
+/// `<stem>.checkpoint.scene.json`: the scene a checkpoint was written under.
+fn scene_record_path(checkpoint: &Path) -> PathBuf {
+    checkpoint.with_extension("scene.json")
+}
+
+/// Scene keys a resumed run may change: when it ends, what it records and checks, which
+/// schemes the command runs and how the (same) linear systems are solved.
+const RESUMABLE_KEYS: [&str; 4] = ["t_end", "schemes", "solver", "solver_tolerance"];
+const RESUMABLE_CAVITY_KEYS: [&str; 4] =
+    ["snapshots", "sample_every", "ghia_tolerance", "check_ghia"];
+
+/// Refuses to resume a checkpoint under a scene whose physics differs from the one it was
+/// written under (recorded beside it). A checkpoint without a record predates the record
+/// (2026-11-30); every such run used `wall_condition = "reflection"`, so it is refused under
+/// any other wall condition.
+fn check_checkpoint_scene(record: &Path, scene: &Scene) -> anyhow::Result<()> {
+    let physics = |mut v: serde_json::Value| {
+        if let Some(m) = v.as_object_mut() {
+            for k in RESUMABLE_KEYS {
+                m.remove(k);
+            }
+            if let Some(c) = m.get_mut("cavity").and_then(|c| c.as_object_mut()) {
+                for k in RESUMABLE_CAVITY_KEYS {
+                    c.remove(k);
+                }
+            }
+        }
+        v
+    };
+    let current = physics(serde_json::to_value(scene)?);
+    if !record.exists() {
+        let condition = scene.cavity.as_ref().map(|c| c.wall_condition);
+        if condition.is_some_and(|c| c != sph_integrators::WallCondition::Reflection) {
+            anyhow::bail!(
+                "the checkpoint has no scene record ({}): it was written before 2026-11-30, \
+                 when every cavity ran with wall_condition = \"reflection\"; resuming it with \
+                 {:?} would change the physics mid-run. Add wall_condition = \"reflection\" to \
+                 the scene's [cavity] table to continue it, or start afresh",
+                record.display(),
+                condition.expect("checked")
+            );
+        }
+        return Ok(());
+    }
+    let text =
+        std::fs::read_to_string(record).with_context(|| format!("reading {}", record.display()))?;
+    let written = physics(
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", record.display()))?,
+    );
+    if written != current {
+        let (w, c) = (written.as_object(), current.as_object());
+        let mut keys: Vec<String> = w
+            .into_iter()
+            .chain(c)
+            .flat_map(|m| m.keys().cloned())
+            .filter(|k| w.and_then(|m| m.get(k)) != c.and_then(|m| m.get(k)))
+            .collect();
+        keys.sort();
+        keys.dedup();
+        anyhow::bail!(
+            "the checkpoint was written under another scene ({} differs: {}); resuming would \
+             change the physics mid-run",
+            record.display(),
+            keys.join(", ")
+        );
+    }
+    Ok(())
+}
+
 /// Reads and validates a scene file.
 pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
     let text = std::fs::read_to_string(path)
@@ -407,6 +476,7 @@ fn run_cavity<D: Dim>(
                     .with_context(|| format!("reading {}", checkpoint_path.display()))?;
                 let c: sph_integrators::Checkpoint = serde_json::from_str(&text)
                     .with_context(|| format!("parsing {}", checkpoint_path.display()))?;
+                check_checkpoint_scene(&scene_record_path(&checkpoint_path), scene)?;
                 println!(
                     "  {stem}: resuming from step {} (t = {}) in {}",
                     c.step,
@@ -434,10 +504,13 @@ fn run_cavity<D: Dim>(
         )?;
         // Checkpoints are written to a temporary file and renamed, so a run killed mid-write
         // keeps the previous checkpoint.
+        // The scene beside it, so a resume under different physics is refused.
+        let scene_record = serde_json::to_vec_pretty(scene)?;
         let mut save = |c: &sph_integrators::Checkpoint| -> std::io::Result<()> {
             let tmp = checkpoint_path.with_extension("json.tmp");
             std::fs::write(&tmp, serde_json::to_vec(c)?)?;
-            std::fs::rename(&tmp, &checkpoint_path)
+            std::fs::rename(&tmp, &checkpoint_path)?;
+            std::fs::write(scene_record_path(&checkpoint_path), &scene_record)
         };
         let control = cavity::RunControl {
             resume: resume.as_ref(),
@@ -495,10 +568,15 @@ fn run_cavity<D: Dim>(
             )
         });
         println!(
-            "  {name} {:<19} fluid={} walls={} steps={steps} t={:.3} KE {:.4e} ρ̂ rms {:.3e} (Δ {:.3e}) max pen {} (depth {:.3} dx) steady {}  {ghia}  iters/step {iters:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{wall_s:.1} s]",
+            "  {name} {:<19} fluid={} walls={} ({}) steps={steps} t={:.3} KE {:.4e} ρ̂ rms {:.3e} (Δ {:.3e}) max pen {} (depth {:.3} dx) steady {}  {ghia}  iters/step {iters:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{wall_s:.1} s]",
             scheme.name(),
             run.particles.0,
             run.particles.1,
+            scene
+                .cavity
+                .as_ref()
+                .map_or("—".into(), |c| format!("{:?}", c.wall_condition)
+                    .to_lowercase()),
             last.t,
             last.kinetic_energy,
             last.density_error_rms,
@@ -761,6 +839,47 @@ mod tests {
             assert!(dir.join(format!("{name}-euler.mcap")).exists(), "{name}");
         }
         assert!(!dir.join("elliptical_drop_euler.csv").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A checkpoint resumes only under the physics it was written under: the scene recorded
+    /// beside it must match except for the keys a resumed run may change; one without a record
+    /// (written before 2026-11-30) only under `wall_condition = "reflection"`.
+    #[test]
+    fn resume_is_refused_under_other_physics() {
+        let dir = std::env::temp_dir().join(format!("dgsph-resume-scene-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let record = dir.join("c_dg.checkpoint.scene.json");
+        let text = "case = \"lid_driven_cavity\"\ndim = 2\ndx = 0.05\nkernel = \"wendland_c2\"\ndt = 0.01\nt_end = 1.0\nschemes = [\"dg\"]\n[cavity]\nreynolds = 100\n";
+        let scene = Scene::parse("c", text).unwrap();
+        // No record: refused under the default (continuation), accepted under reflection.
+        let err = check_checkpoint_scene(&record, &scene)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("reflection"), "{err}");
+        let mut reflection = scene.clone();
+        reflection.cavity.as_mut().unwrap().wall_condition =
+            sph_integrators::WallCondition::Reflection;
+        check_checkpoint_scene(&record, &reflection).unwrap();
+        // With a record: a longer run, other schemes or snapshots, another solver are fine.
+        std::fs::write(&record, serde_json::to_vec(&scene).unwrap()).unwrap();
+        let mut longer = scene.clone();
+        longer.t_end = 40.0;
+        longer.schemes = vec![SchemeKind::Euler];
+        longer.cavity.as_mut().unwrap().snapshots = vec![5.0];
+        longer.solver_tolerance = Some(1e-6);
+        check_checkpoint_scene(&record, &longer).unwrap();
+        // Other physics is refused, naming what differs.
+        let mut finer = scene.clone();
+        finer.dx = 0.025;
+        let err = check_checkpoint_scene(&record, &finer)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("differs: dx"), "{err}");
+        let err = check_checkpoint_scene(&record, &reflection)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("differs: cavity"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
