@@ -35,7 +35,7 @@ pub enum WallModel {
 /// 2 % of `U` in the first particle layer at the side walls at every resolution,
 /// [`Reflection`](Self::Reflection) 52 % (test `closed_walls_stop_a_uniform_stream`). A
 /// divergence-free field tangential to the walls (a Taylor–Green cell) must pass unchanged:
-/// Reflection changes it by 0.1 % RMS at 50², Continuation by 1.4 %, converging as
+/// Reflection changes it by 0.12 % RMS at 20² (dx = 0.05), Continuation by 1.3 %, converging as
 /// `Δx^1.5` (test `tangential_divergence_free_flow_passes_the_walls`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
