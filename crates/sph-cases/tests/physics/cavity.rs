@@ -108,14 +108,18 @@ fn short_run_holds_d3() {
 
 /// The ordering of the paper's Figs. 7 and 9: DG-ISPH's RMS density error (Eq. 31) below Euler's
 /// and below predictor–corrector's. **Not reproduced** (so ignored; run with `--ignored`): at
-/// 20², Re 400, Wendland C2, t = 2 with shifting the measured RMS errors are Euler 1.68e-2,
-/// PC 1.61e-2, DG 1.75e-2; at t = 10 (Re 100) Euler 3.04e-2, PC 3.12e-2, DG 2.91e-2; without
-/// shifting all three agree to 1 % (1.17e-2 at t = 0.3) until they fail together at t ≈ 0.6.
-/// At the paper's dx = 0.02 (Wendland C2, shifting A = 2, t = 45), the RMS error averaged over
-/// t ∈ [10, 45] is, at Re 400, Euler 0.0204, PC 0.0214, DG 0.0201 (DG lowest, by 1.5 % and 6 %);
-/// at Re 1000, Euler 0.0184, PC 0.0189, DG 0.0185 (DG not below Euler). Re-running Re 400 after
-/// a change of summation order in the matrix–vector product only (fae4385) gives Euler 0.0204,
-/// PC 0.0213, DG 0.0206: the DG–Euler gap is within round-off-driven run-to-run spread.
+/// 20², Re 400, Wendland C2, t = 2 with shifting the measured RMS errors are Euler 3.19e-2,
+/// PC 3.04e-2, DG 3.23e-2 (reflection walls: 1.68e-2, 1.61e-2, 1.75e-2); under reflection, at
+/// t = 10 (Re 100) Euler 3.04e-2, PC 3.12e-2, DG 2.91e-2, and without shifting all three agreed
+/// to 1 % (1.17e-2 at t = 0.3) until they failed together at t ≈ 0.6.
+/// At the paper's dx = 0.02 (t = 45), the RMS error averaged over t ∈ [10, 45], Euler / PC / DG,
+/// with the default wall condition (continuation): Wendland C2 (A = 2) Re 400 0.0208 / 0.0214 /
+/// 0.0209, Re 1000 0.0223 / 0.0232 / 0.0222; quintic (A = 10) Re 400 0.00971 / 0.00936 /
+/// 0.00960, Re 1000 0.00906 / 0.00846 / 0.00875 — DG lowest in one of four, by 0.4 %. With the
+/// reflection condition: Wendland Re 400 0.0204 / 0.0214 / 0.0201, Re 1000 0.0184 / 0.0189 /
+/// 0.0185; re-running Re 400 after a change of summation order in the matrix–vector product
+/// only (fae4385) gave 0.0204 / 0.0213 / 0.0206: the gaps are within round-off-driven
+/// run-to-run spread.
 /// The density error here is set by the walls, the gauge incompatibility and shifting, not by
 /// the scheme's O(Δt²) volume error. See the README ("Lid-driven cavity").
 #[test]
