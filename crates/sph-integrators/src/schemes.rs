@@ -143,8 +143,8 @@ fn intermediate_velocity<D: Dim>(
 const MAX_SHIFT: f64 = 0.2;
 
 /// Particle shifting (see [`Shifting`](crate::Shifting)) at the projection's configuration:
-/// adds `δr_i = −A h |uⁿ⁺¹_i| Δt ∇C_i` (capped at 0.2 Δp, and never bringing a particle closer
-/// than Δp/2 to a wall, see [`Walls::limit_shift`](crate::Walls::limit_shift)) to the fluid
+/// adds `δr_i = −A h |uⁿ⁺¹_i| Δt ∇C_i` (capped at 0.2 Δp, and at half the particle's distance to a
+/// wall, see [`Walls::limit_shift`](crate::Walls::limit_shift)) to the fluid
 /// displacements and corrects `uⁿ⁺¹_i += ∇uⁿ⁺¹_i δr_i`.
 struct ShiftBuffers<'a, D: Dim> {
     grad_c: &'a mut [D::Vector],
@@ -168,7 +168,7 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
             dr *= cap / len;
         }
         if let Some(w) = &e.walls {
-            dr = w.limit_shift(x[i], dr, 0.5 * sh.spacing);
+            dr = w.limit_shift(x[i], dr);
         }
         b.disp[i] += dr;
         b.u_new[i] += b.grad_u[i] * dr;

@@ -243,9 +243,9 @@ sph_core::dim_tests! {
         assert_eq!(walls.max_intrusion(&[inside, inside, inside, wall]), 0.0);
         let d = walls.max_intrusion(&[inside, a, inside, wall]);
         assert!((d - 0.01).abs() < 1e-12, "{d}");
-        // Shifts: a wall-ward component stops at `gap` from the wall (nothing once closer);
-        // tangential and inward components, and particles far from walls, are left alone.
-        let gap = 0.05;
+        // Shifts: a wall-ward component takes at most half the distance to the wall (nothing
+        // outside the box); tangential and inward components, and particles far from walls,
+        // are left alone.
         let near = |k: usize, v: f64| {
             let mut x = D::Vector::from_fn(|_| 0.5);
             x.set(k, v);
@@ -258,14 +258,15 @@ sph_core::dim_tests! {
         };
         let close = |a: D::Vector, b: D::Vector| (a - b).length() < 1e-15;
         for k in 0..D::DIM {
-            // 0.08 from the lower wall, shifted 0.05 towards it: only 0.03 is allowed.
-            assert!(close(walls.limit_shift(near(k, 0.08), shift(k, -0.05), gap), shift(k, -0.03)));
-            // Already within the gap: no wall-ward shift, the rest kept.
-            assert!(close(walls.limit_shift(near(k, 0.03), shift(k, -0.05), gap), shift(k, 0.0)));
-            // The upper wall alike; away from a wall, and far from walls, nothing changes.
-            assert!(close(walls.limit_shift(near(k, 0.92), shift(k, 0.05), gap), shift(k, 0.03)));
-            assert!(close(walls.limit_shift(near(k, 0.03), shift(k, 0.05), gap), shift(k, 0.05)));
-            assert!(close(walls.limit_shift(near(k, 0.5), shift(k, -0.05), gap), shift(k, -0.05)));
+            // 0.08 from the lower wall, shifted 0.05 towards it: only 0.04 is allowed.
+            assert!(close(walls.limit_shift(near(k, 0.08), shift(k, -0.05)), shift(k, -0.04)));
+            // 0.2 from it: the whole 0.05.
+            assert!(close(walls.limit_shift(near(k, 0.2), shift(k, -0.05)), shift(k, -0.05)));
+            // Outside: no wall-ward shift, the rest kept.
+            assert!(close(walls.limit_shift(near(k, -0.01), shift(k, -0.05)), shift(k, 0.0)));
+            // The upper wall alike; away from a wall nothing changes.
+            assert!(close(walls.limit_shift(near(k, 0.92), shift(k, 0.05)), shift(k, 0.04)));
+            assert!(close(walls.limit_shift(near(k, 0.03), shift(k, 0.05)), shift(k, 0.05)));
         }
     }
 }

@@ -136,19 +136,21 @@ impl<D: Dim> Walls<D> {
     }
 
     /// A shift `dr` of the fluid particle at `x`, with each component that points into a wall
-    /// shortened so the particle ends no closer than `gap` to that wall (zero when it is already
-    /// closer). Shifting is a regularisation of the particle distribution, not a flow: near a
-    /// wall its anti-clumping term, pushed by a fluid neighbour that came too close, could
-    /// otherwise move a particle across the wall line (seen at the lid of a 100² cavity: a
-    /// particle moving away from the lid was shifted 0.2 Δp into it).
-    pub fn limit_shift(&self, x: D::Vector, dr: D::Vector, gap: f64) -> D::Vector {
+    /// shortened to at most half the particle's distance to that wall (zero outside the box),
+    /// so a shift can bring a particle closer to a wall but never across it; at the lattice
+    /// distance Δp/2 the allowance (Δp/4) exceeds the shift cap (0.2 Δp), so ordinary shifting
+    /// near walls is untouched. Shifting is a regularisation of the particle distribution, not a
+    /// flow: near a wall its anti-clumping term, pushed by a fluid neighbour that came too close,
+    /// could otherwise move a particle across the wall line (seen at the lid of a 100² cavity: a
+    /// particle 0.09 Δp below the lid, moving away from it, was shifted 0.2 Δp into it).
+    pub fn limit_shift(&self, x: D::Vector, dr: D::Vector) -> D::Vector {
         D::Vector::from_fn(|k| {
             let (d, lo, hi) = (dr.get(k), self.lo.get(k), self.hi.get(k));
             let xk = x.get(k);
             if d < 0.0 {
-                d.max((lo + gap - xk).min(0.0))
+                d.max(-0.5 * (xk - lo).max(0.0))
             } else {
-                d.min((hi - gap - xk).max(0.0))
+                d.min(0.5 * (hi - xk).max(0.0))
             }
         })
     }
