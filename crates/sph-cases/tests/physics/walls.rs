@@ -10,7 +10,7 @@
 //! fails the first two: that leak is the wall crossing of the cavity runs it was used for.
 
 use sph_cases::{Scene, cavity};
-use sph_core::{D2, D3, Dim, VectorOps};
+use sph_core::{Dim, VectorOps};
 use sph_integrators::{Integrator, Scheme, SchemeKind, Simulation, WallCondition};
 
 enum Init {
@@ -75,102 +75,78 @@ fn side_wall_normal_velocity<D: Dim>(dx: f64, x: &[D::Vector], u: &[D::Vector]) 
         .fold(0.0, f64::max)
 }
 
+/// RMS of `|a|` over the particles.
+fn rms<D: Dim>(a: &[D::Vector]) -> f64 {
+    (a.iter().map(|v| v.dot(*v)).sum::<f64>() / a.len() as f64).sqrt()
+}
+
 fn rms_difference<D: Dim>(a: &[D::Vector], b: &[D::Vector]) -> f64 {
     let s: f64 = a.iter().zip(b).map(|(a, b)| (*a - *b).dot(*a - *b)).sum();
     (s / a.len() as f64).sqrt()
 }
 
-/// Measured (2D dx = 0.05 / 3D dx = 0.1): Continuation leaves 0.020 / 0.042 of the stream in the
-/// first layer at the side walls (RMS over the box 0.027 / 0.074), Reflection 0.52 / 0.54.
-fn closed_walls_stop_a_uniform_stream<D: Dim>() {
-    let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
-    let (x, _, u) = one_projection::<D>(dx, 0.01, WallCondition::Continuation, Init::Stream);
-    let first_layer = side_wall_normal_velocity::<D>(dx, &x, &u);
-    let rms = rms_difference::<D>(&u, &vec![D::Vector::ZERO; u.len()]);
-    assert!(
-        first_layer < 0.06,
-        "continuation: first layer |u_n| = {first_layer}"
-    );
-    assert!(rms < 0.1, "continuation: RMS |u| = {rms}");
-    let (x, _, u) = one_projection::<D>(dx, 0.01, WallCondition::Reflection, Init::Stream);
-    let first_layer = side_wall_normal_velocity::<D>(dx, &x, &u);
-    assert!(
-        first_layer > 0.4,
-        "reflection: first layer |u_n| = {first_layer}"
-    );
-}
-
-#[test]
-fn closed_walls_stop_a_uniform_stream_d2() {
-    closed_walls_stop_a_uniform_stream::<D2>();
-}
-
-#[test]
-fn closed_walls_stop_a_uniform_stream_d3() {
-    closed_walls_stop_a_uniform_stream::<D3>();
-}
-
-/// `u* = gΔt` everywhere: Continuation's Neumann data is `g` itself, the pressure `ρ g·x` is
-/// linear and its corrected gradient exact, so the fluid stays at rest (measured RMS |u| < 5e-4
-/// gΔt). Reflection lets it fall at 0.91 gΔt (2D) and 0.88 gΔt (3D) RMS in one step (dx = 0.1).
-fn fluid_at_rest_under_gravity_stays_at_rest<D: Dim>() {
-    let (dx, dt) = (0.1, 0.01);
-    let g_dt = 9.81 * dt;
-    let zero = |n| vec![D::Vector::ZERO; n];
-    let (_, _, u) = one_projection::<D>(dx, dt, WallCondition::Continuation, Init::Rest);
-    let rms = rms_difference::<D>(&u, &zero(u.len()));
-    assert!(rms < 1e-3 * g_dt, "continuation: RMS |u| = {rms}");
-    let (_, _, u) = one_projection::<D>(dx, dt, WallCondition::Reflection, Init::Rest);
-    let rms = rms_difference::<D>(&u, &zero(u.len()));
-    assert!(rms > 0.5 * g_dt, "reflection: RMS |u| = {rms}");
-}
-
-#[test]
-fn fluid_at_rest_under_gravity_stays_at_rest_d2() {
-    fluid_at_rest_under_gravity_stays_at_rest::<D2>();
-}
-
-#[test]
-fn fluid_at_rest_under_gravity_stays_at_rest_d3() {
-    fluid_at_rest_under_gravity_stays_at_rest::<D3>();
-}
-
-/// The Taylor–Green cell `(sin πx cos πy, −cos πx sin πy, 0)` is divergence-free with zero normal
-/// velocity on the box: one projection must leave it as it is. Measured RMS change, 2D at
-/// dx = 0.05 / 0.025 and 3D at 0.1 / 0.0625: Continuation 0.013 / 0.0046 and 0.035 / 0.018 (the
-/// Shepard continuation of u into the wall is first order); Reflection 0.0012 / 0.0007 and
-/// 0.0008 / 0.0011.
-fn tangential_divergence_free_flow_passes_the_walls<D: Dim>() {
-    let (coarse, fine) = if D::DIM == 2 {
-        (0.05, 0.025)
-    } else {
-        (0.1, 0.0625)
-    };
-    let change = |dx: f64, c| {
-        let (_, u0, u) = one_projection::<D>(dx, 0.2 * dx, c, Init::TaylorGreen);
-        rms_difference::<D>(&u, &u0)
-    };
-    let (c0, c1) = (
-        change(coarse, WallCondition::Continuation),
-        change(fine, WallCondition::Continuation),
-    );
-    assert!(c1 < 0.02, "continuation at dx = {fine}: {c1}");
-    assert!(
-        c1 < 0.6 * c0,
-        "continuation does not converge: {c0} -> {c1}"
-    );
-    for dx in [coarse, fine] {
-        let r = change(dx, WallCondition::Reflection);
-        assert!(r < 0.002, "reflection at dx = {dx}: {r}");
+sph_core::dim_tests! {
+    /// Measured (2D dx = 0.05 / 3D dx = 0.1): Continuation leaves 0.020 / 0.042 of the stream in the
+    /// first layer at the side walls (RMS over the box 0.027 / 0.074), Reflection 0.52 / 0.54.
+    fn closed_walls_stop_a_uniform_stream<D>() {
+        let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
+        let (x, _, u) = one_projection::<D>(dx, 0.01, WallCondition::Continuation, Init::Stream);
+        let first_layer = side_wall_normal_velocity::<D>(dx, &x, &u);
+        let r = rms::<D>(&u);
+        assert!(
+            first_layer < 0.06,
+            "continuation: first layer |u_n| = {first_layer}"
+        );
+        assert!(r < 0.1, "continuation: RMS |u| = {r}");
+        let (x, _, u) = one_projection::<D>(dx, 0.01, WallCondition::Reflection, Init::Stream);
+        let first_layer = side_wall_normal_velocity::<D>(dx, &x, &u);
+        assert!(
+            first_layer > 0.4,
+            "reflection: first layer |u_n| = {first_layer}"
+        );
     }
-}
 
-#[test]
-fn tangential_divergence_free_flow_passes_the_walls_d2() {
-    tangential_divergence_free_flow_passes_the_walls::<D2>();
-}
+    /// `u* = gΔt` everywhere: Continuation's Neumann data is `g` itself, the pressure `ρ g·x` is
+    /// linear and its corrected gradient exact, so the fluid stays at rest (measured RMS |u| < 5e-4
+    /// gΔt). Reflection lets it fall at 0.91 gΔt (2D) and 0.88 gΔt (3D) RMS in one step (dx = 0.1).
+    fn fluid_at_rest_under_gravity_stays_at_rest<D>() {
+        let (dx, dt) = (0.1, 0.01);
+        let g_dt = 9.81 * dt;
+        let (_, _, u) = one_projection::<D>(dx, dt, WallCondition::Continuation, Init::Rest);
+        let r = rms::<D>(&u);
+        assert!(r < 1e-3 * g_dt, "continuation: RMS |u| = {r}");
+        let (_, _, u) = one_projection::<D>(dx, dt, WallCondition::Reflection, Init::Rest);
+        let r = rms::<D>(&u);
+        assert!(r > 0.5 * g_dt, "reflection: RMS |u| = {r}");
+    }
 
-#[test]
-fn tangential_divergence_free_flow_passes_the_walls_d3() {
-    tangential_divergence_free_flow_passes_the_walls::<D3>();
+    /// The Taylor–Green cell `(sin πx cos πy, −cos πx sin πy, 0)` is divergence-free with zero normal
+    /// velocity on the box: one projection must leave it as it is. Measured RMS change, 2D at
+    /// dx = 0.05 / 0.025 and 3D at 0.1 / 0.0625: Continuation 0.013 / 0.0046 and 0.035 / 0.018 (the
+    /// Shepard continuation of u into the wall is first order); Reflection 0.0012 / 0.0007 and
+    /// 0.0008 / 0.0011.
+    fn tangential_divergence_free_flow_passes_the_walls<D>() {
+        let (coarse, fine) = if D::DIM == 2 {
+            (0.05, 0.025)
+        } else {
+            (0.1, 0.0625)
+        };
+        let change = |dx: f64, c| {
+            let (_, u0, u) = one_projection::<D>(dx, 0.2 * dx, c, Init::TaylorGreen);
+            rms_difference::<D>(&u, &u0)
+        };
+        let (c0, c1) = (
+            change(coarse, WallCondition::Continuation),
+            change(fine, WallCondition::Continuation),
+        );
+        assert!(c1 < 0.02, "continuation at dx = {fine}: {c1}");
+        assert!(
+            c1 < 0.6 * c0,
+            "continuation does not converge: {c0} -> {c1}"
+        );
+        for dx in [coarse, fine] {
+            let r = change(dx, WallCondition::Reflection);
+            assert!(r < 0.002, "reflection at dx = {dx}: {r}");
+        }
+    }
 }
