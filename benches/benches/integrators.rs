@@ -6,7 +6,7 @@
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use dgsph_benches::drop_scene;
 use sph_cases::CaseKind;
-use sph_cases::drop::setup;
+use sph_cases::drop::initial;
 use sph_core::{D2, D3, Dim};
 use sph_integrators::{Integrator, Scheme, SchemeKind, Simulation};
 use std::hint::black_box;
@@ -15,17 +15,17 @@ fn bench<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     let mut group = c.benchmark_group("integrators");
     group.sample_size(10);
     let scene = drop_scene(case, dx);
-    let s = setup::<D>(&scene, sph_cases::reference::References::embedded());
-    let n = s.particles.len();
-    let mut config = s.config.clone();
-    config.diagnostics = false;
+    let (particles, _) = initial::<D>(&scene);
+    let n = particles.len();
+    // Diagnostics are off by default: a step is what a run without [output] diagnostics does.
+    let config = scene.sim_config();
     for kind in SchemeKind::ALL {
         group.bench_function(
             BenchmarkId::new(format!("{}/{}", kind.name(), D::NAME), n),
             |b| {
                 b.iter_batched(
                     || {
-                        let mut sim = Simulation::new(s.particles.clone(), config.clone()).unwrap();
+                        let mut sim = Simulation::new(particles.clone(), config.clone()).unwrap();
                         for _ in 0..2 {
                             Scheme::new(kind).step(&mut sim, scene.dt).unwrap();
                         }

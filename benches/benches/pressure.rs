@@ -5,7 +5,7 @@
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use dgsph_benches::{H, drop_scene, particles, self_join};
 use sph_cases::CaseKind;
-use sph_cases::drop::setup;
+use sph_cases::drop::initial;
 use sph_core::{D2, D3, Dim, MatrixOps, VectorOps};
 use sph_kernels::QuinticSpline;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
@@ -67,8 +67,8 @@ fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     let mut group = c.benchmark_group("pressure");
     group.sample_size(10);
     let scene = drop_scene(case, dx);
-    let s = setup::<D>(&scene, sph_cases::reference::References::embedded());
-    let pts = &s.particles.positions;
+    let (particles, _) = initial::<D>(&scene);
+    let pts = &particles.positions;
     let n = pts.len();
     let kernel = QuinticSpline::<D>::new(1.3 * dx);
     let mut grid = CellGrid::<D>::new();

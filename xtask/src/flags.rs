@@ -1,6 +1,7 @@
 //! Command-line flags.
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Parser, Subcommand};
+use dgsph::overrides::Preset;
 use std::path::PathBuf;
 
 /// dgsph developer tasks.
@@ -15,96 +16,42 @@ pub struct Cli {
 /// Available tasks.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Run the validation cases and compare them with reference data.
+    /// Run the validation scenes and compare them with reference data.
     Validate(ValidateArgs),
-    /// Run one scene file and write its time series as CSV.
-    Run(Box<RunArgs>),
-    /// Rebuild report.md and its figures from the CSV files of an output directory.
-    Report(ReportArgs),
+    /// Run one scene (the same as `dgsph run`).
+    Run(Box<dgsph::cli::RunArgs>),
+    /// Rebuild report.md and its figures from an output directory (`dgsph report`).
+    Report(dgsph::cli::ReportArgs),
 }
 
-/// Flags of `cargo xtask report`.
-#[derive(Debug, clap::Args)]
-pub struct ReportArgs {
-    /// Directory holding the CSV files (and summary.json) of a validation or run.
-    #[arg(long, default_value = "target/validation")]
-    pub out: PathBuf,
+/// Which scenes `validate` runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Suite {
+    /// The scenes of `cases/` (the paper's cases and the scene examples).
+    Default,
+    /// The hard cases of `cases/hard/`, each against the criteria its scene declares.
+    Hard,
 }
 
-/// Flags of `cargo xtask run`.
-#[derive(Debug, clap::Args)]
-pub struct RunArgs {
-    /// Scene file (TOML), e.g. cases/elliptical_drop.toml.
-    pub scene: PathBuf,
-    /// Resolution / duration preset.
-    #[arg(long, value_enum, default_value = "paper")]
-    pub preset: Preset,
-    /// Output directory for the CSV files.
-    #[arg(long, default_value = "target/runs")]
-    pub out: PathBuf,
-    /// Override the scene's particle spacing.
-    #[arg(long)]
-    pub dx: Option<f64>,
-    /// Override the scene's time step.
-    #[arg(long)]
-    pub dt: Option<f64>,
-    /// Override the scene's end time.
-    #[arg(long)]
-    pub t_end: Option<f64>,
-    /// Override the free-surface threshold on ∇·r.
-    #[arg(long)]
-    pub div_r_threshold: Option<f64>,
-    /// Override the DG Hessian (`eq25` or `quadratic_fit`).
-    #[arg(long)]
-    pub dg_hessian: Option<String>,
-    /// Override the cavity's Reynolds number.
-    #[arg(long)]
-    pub re: Option<f64>,
-    /// Override the kernel (`quintic_spline`, `wendland_c2`, `cubic_spline`).
-    #[arg(long)]
-    pub kernel: Option<String>,
-    /// Override the schemes (comma-separated: `euler,predictor_corrector,dg`).
-    #[arg(long)]
-    pub schemes: Option<String>,
-    /// Declare particle shifting with this coefficient A (Lind et al. 2012).
-    #[arg(long)]
-    pub shifting: Option<f64>,
-    /// Override the solver (`bicgstab_jacobi`, `bicgstab_ilu0`, `bicgstab_amg`, `sparse_lu`).
-    #[arg(long)]
-    pub solver: Option<String>,
-    /// Override the solver's relative tolerance.
-    #[arg(long)]
-    pub solver_tolerance: Option<f64>,
-    /// Output file prefix (default: the scene file's stem).
-    #[arg(long)]
-    pub tag: Option<String>,
-    /// Cavity runs: write `<out>/<prefix>_<scheme>.checkpoint.json` every N steps (and at the end).
-    #[arg(long, value_name = "N")]
-    pub checkpoint_every: Option<usize>,
-    /// Cavity runs: continue from `<out>/<prefix>_<scheme>.checkpoint.json` where one exists,
-    /// appending to the CSV time series (runs longer than a session).
-    #[arg(long)]
-    pub resume: bool,
-    /// Write every N-th particle frame to MCAP (default: every drop step, ~40 cavity frames).
-    #[arg(long, value_name = "N")]
-    pub frame_stride: Option<usize>,
-}
-
-/// How much to run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Preset {
-    /// A few minutes on a laptop: coarse resolutions, short end times.
-    Quick,
-    /// The paper's resolutions and end times (long: start in the background).
-    Paper,
+impl Suite {
+    /// Name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Suite::Default => "default",
+            Suite::Hard => "hard",
+        }
+    }
 }
 
 /// Flags of `cargo xtask validate`.
 #[derive(Debug, clap::Args)]
 pub struct ValidateArgs {
-    /// Resolution / duration preset.
+    /// `quick` (each scene's `[quick]` overrides) or `full` (alias `paper`: as written).
     #[arg(long, value_enum, default_value = "quick")]
     pub preset: Preset,
+    /// The scene suite.
+    #[arg(long, value_enum, default_value = "default")]
+    pub suite: Suite,
     /// Run only the cases whose kind (e.g. `lid_driven_cavity`, `kernels`) or scene file stem
     /// (e.g. `cavity_density_quintic`) contains this string.
     #[arg(long)]
@@ -112,25 +59,27 @@ pub struct ValidateArgs {
     /// Output directory for reports and frames.
     #[arg(long, default_value = "target/validation")]
     pub out: PathBuf,
-    /// Directory of scene files.
-    #[arg(long, default_value = "cases")]
-    pub cases: PathBuf,
+    /// Directory of scene files (default: `cases`, or `cases/hard` for `--suite hard`).
+    #[arg(long)]
+    pub cases: Option<PathBuf>,
     /// Compare against the reference tables in this directory instead of the copy compiled in
     /// from `cases/reference/` (files it lacks keep the compiled copy).
     #[arg(long)]
     pub references: Option<PathBuf>,
-    /// Instead of the validation cases, run the accuracy-against-cost sweep (every scheme over
-    /// three resolutions, both kernels, two solvers; a Δt refinement) and write sweep.md,
-    /// sweep.csv and the error-against-wall-time plots. Takes tens of minutes.
+    /// Instead of the validation cases, run the accuracy-against-cost sweep and write
+    /// sweep.md, sweep.csv and the error-against-wall-time plots.
     #[arg(long)]
     pub sweep: bool,
-    /// Write every N-th particle frame to MCAP (default: every drop step, ~40 cavity frames).
-    #[arg(long, value_name = "N")]
-    pub frame_stride: Option<usize>,
-    /// Cavity runs: checkpoint every N steps into the output directory.
-    #[arg(long, value_name = "N")]
-    pub checkpoint_every: Option<usize>,
-    /// Cavity runs: continue from their checkpoints (a `--preset paper` spanning sessions).
+    /// Records between particle frames (MCAP, ParaView).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub frame_every: Option<u64>,
+    /// Checkpoint every N steps into the output directory.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub checkpoint_every: Option<u64>,
+    /// Continue every run from its checkpoint (an error where there is none).
     #[arg(long)]
     pub resume: bool,
+    /// Write ParaView frames of every run.
+    #[arg(long)]
+    pub vtk: bool,
 }

@@ -8,11 +8,12 @@
 //! Pareto-optimal runs marked, and the observed convergence orders) and one error-against-wall-
 //! time plot per case.
 
-use crate::report::{Series, line_plot};
 use anyhow::Context;
+use dgsph::report::{Series, line_plot};
+use sph_cases::Scene;
 use sph_cases::reference::References;
-use sph_cases::{Scene, cavity, drop};
-use sph_core::D2;
+use sph_cases::registry;
+use sph_cases::run::{MemorySink, RunControl};
 use sph_integrators::SchemeKind;
 use sph_kernels::KernelKind;
 use sph_pressure::SolverKind;
@@ -47,13 +48,6 @@ const SCHEMES: [SchemeKind; 3] = [
 ];
 const KERNELS: [KernelKind; 2] = [KernelKind::QuinticSpline, KernelKind::WendlandC2];
 const SOLVERS: [SolverKind; 2] = [SolverKind::BicgstabJacobi, SolverKind::BicgstabIlu0];
-
-fn name<T: serde::Serialize>(v: &T) -> String {
-    serde_json::to_value(v)
-        .ok()
-        .and_then(|v| v.as_str().map(str::to_string))
-        .unwrap_or_default()
-}
 
 /// What one run measured: `(particles, steps, error, error2, status)`.
 type Measured = (usize, usize, f64, f64, String);
@@ -90,39 +84,69 @@ impl Point {
     }
 }
 
+/// Runs `scene`'s first scheme in memory.
+fn run_one(
+    scene: &Scene,
+    refs: &References,
+) -> Result<(sph_cases::run::SchemeRun, MemorySink), sph_cases::CaseError> {
+    let mut sink = MemorySink::default();
+    let r = registry::run_scheme(
+        scene,
+        scene.schemes[0],
+        refs,
+        RunControl::default(),
+        &mut sink,
+    )?;
+    Ok((r, sink))
+}
+
+fn status(r: &sph_cases::run::SchemeRun, dx: f64) -> String {
+    if let Some(e) = &r.failure {
+        return format!("failed: {e}");
+    }
+    let pen = r
+        .results
+        .get("max_wall_penetrations")
+        .copied()
+        .unwrap_or(0.0);
+    if pen > 0.0 {
+        format!(
+            "{pen} wall penetrations ({:.3} dx deep)",
+            r.results
+                .get("max_wall_intrusion_dx")
+                .copied()
+                .unwrap_or(f64::NAN)
+        )
+    } else {
+        let _ = dx;
+        "ok".to_string()
+    }
+}
+
 fn drop_point(scene: &Scene, refs: &References, study: &'static str) -> Point {
-    let particles = drop::setup::<D2>(scene, refs).particles.len();
     Point::measure("elliptical_drop", study, scene, || {
-        let records = drop::run::<D2>(scene, scene.schemes[0], refs, &mut |_, _| Ok(()))?;
-        let last = drop::last_full_step(&records);
+        let (r, _) = run_one(scene, refs)?;
+        let get = |k: &str| r.results.get(k).copied().unwrap_or(f64::NAN);
         Ok((
-            particles,
-            records.len() - 1,
-            (last.semi_axes[0] / last.exact.a - 1.0).abs(),
-            drop::volume_change(&records).abs(),
-            "ok".to_string(),
+            r.particles.0 + r.particles.1,
+            r.step,
+            get("a_error_moments").abs(),
+            get("volume_change").abs(),
+            status(&r, scene.dx),
         ))
     })
 }
 
 fn cavity_point(scene: &Scene, refs: &References) -> Point {
     Point::measure("cavity_re100", "dx", scene, || {
-        let run = cavity::run::<D2>(scene, scene.schemes[0], refs, &mut |_, _| Ok(()))?;
-        let last = run.records.last().expect("initial record");
-        let pen = run.max_penetrations();
+        let (r, sink) = run_one(scene, refs)?;
+        let get = |k: &str| r.results.get(k).copied().unwrap_or(f64::NAN);
         Ok((
-            run.particles.0 + run.particles.1,
-            last.step,
-            run.ghia.map_or(f64::NAN, |g| g.u_rms.max(g.v_rms)),
-            last.density_error_rms,
-            if pen == 0 {
-                "ok".to_string()
-            } else {
-                format!(
-                    "{pen} wall penetrations ({:.3} dx deep)",
-                    run.max_intrusion() / scene.dx
-                )
-            },
+            r.particles.0 + r.particles.1,
+            r.step,
+            get("ghia_u_rms").max(get("ghia_v_rms")),
+            sink.last("density_error_rms"),
+            status(&r, scene.dx),
         ))
     })
 }
@@ -166,8 +190,10 @@ fn pareto(points: &[&Point]) -> Vec<usize> {
 /// Runs the sweep and writes its outputs into `out`.
 pub fn run(cases: &Path, out: &Path, refs: &References) -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let drop_scene = crate::run::load_scene(&cases.join("elliptical_drop.toml"))?;
-    let cavity_scene = crate::run::load_scene(&cases.join("cavity_re100.toml"))?;
+    let drop_scene = dgsph::session::load_scene(&cases.join("elliptical_drop.toml"))
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let cavity_scene = dgsph::session::load_scene(&cases.join("cavity_re100.toml"))
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut points = Vec::new();
     let mut progress = |p: Point| {
         println!(
@@ -175,8 +201,8 @@ pub fn run(cases: &Path, out: &Path, refs: &References) -> anyhow::Result<()> {
             p.case,
             p.study,
             p.scheme.name(),
-            name(&p.kernel),
-            name(&p.solver),
+            p.kernel.name(),
+            p.solver.name(),
             p.dx,
             p.dt,
             p.particles,
@@ -265,8 +291,8 @@ fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
                 if star { "★" } else { "" },
                 p.study,
                 p.scheme.name(),
-                name(&p.kernel),
-                name(&p.solver),
+                p.kernel.name(),
+                p.solver.name(),
                 p.dx,
                 p.dt,
                 p.particles,
@@ -282,8 +308,8 @@ fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
                 p.case,
                 p.study,
                 p.scheme.name(),
-                name(&p.kernel),
-                name(&p.solver),
+                p.kernel.name(),
+                p.solver.name(),
                 p.dx,
                 p.dt,
                 p.particles,
@@ -305,7 +331,7 @@ fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
             .iter()
             .map(|p| (p.study, p.scheme, p.kernel, p.solver))
             .collect();
-        families.sort_by_key(|f| (f.0, f.1.name(), name(&f.2), name(&f.3)));
+        families.sort_by_key(|f| (f.0, f.1.name(), f.2.name(), f.3.name()));
         families.dedup();
         for (study, scheme, kernel, solver) in families {
             let fam: Vec<&&Point> = rows
@@ -325,8 +351,8 @@ fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
                 md,
                 "| {study} | {} | {} | {} | {} | {} |",
                 scheme.name(),
-                name(&kernel),
-                name(&solver),
+                kernel.name(),
+                solver.name(),
                 f(o1),
                 f(o2)
             );

@@ -1,25 +1,82 @@
 //! `cargo xtask validate`.
 
-use crate::flags::ValidateArgs;
+use crate::flags::{Suite, ValidateArgs};
 use anyhow::Context;
+use dgsph::session::{self, AppError, RunOptions, exit};
+use dgsph::summary::{CheckRecord, SCHEMA_VERSION, Summary};
 use sph_cases::Check;
+use sph_cases::reference::References;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Runs the selected cases; returns `Ok(true)` if every check passed.
-pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
+/// The reference set: the compiled-in copy of `cases/reference/`, with the files present in
+/// `dir` (if given) read in its place.
+pub fn load_references(dir: Option<&Path>) -> anyhow::Result<References> {
+    let Some(dir) = dir else {
+        return Ok(References::embedded().clone());
+    };
+    anyhow::ensure!(
+        dir.is_dir(),
+        "--references {}: not a directory",
+        dir.display()
+    );
+    let mut replaced = Vec::new();
+    let mut failed = None;
+    let refs = References::parse(|file| {
+        let path = dir.join(file);
+        if !path.exists() {
+            return None;
+        }
+        match std::fs::read_to_string(&path) {
+            Ok(text) => {
+                replaced.push(file.to_string());
+                Some(text)
+            }
+            Err(e) => {
+                failed.get_or_insert(format!("reading {}: {e}", path.display()));
+                None
+            }
+        }
+    })
+    .with_context(|| format!("reference tables from {}", dir.display()))?;
+    if let Some(message) = failed {
+        anyhow::bail!(message);
+    }
+    println!(
+        "references: {} from {} (others compiled in)",
+        if replaced.is_empty() {
+            "none".to_string()
+        } else {
+            replaced.join(", ")
+        },
+        dir.display()
+    );
+    Ok(refs)
+}
+
+/// Runs the selected scenes; returns the exit code.
+pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
     let t0 = Instant::now();
     // The revision at launch (what `cargo xtask` just built), not at the end of a long run
     // during which the tree may have moved on.
-    let git = git_revision();
-    let mut checks: Vec<(Check, f64)> = Vec::new();
-    let mut runs = Vec::new();
-    let refs = crate::run::load_references(args.references.as_deref())?;
+    let git = dgsph::git_revision();
+    let refs = load_references(args.references.as_deref()).map_err(AppError::Input)?;
+    let cases_dir = args.cases.clone().unwrap_or_else(|| match args.suite {
+        Suite::Default => PathBuf::from("cases"),
+        Suite::Hard => PathBuf::from("cases/hard"),
+    });
     if args.sweep {
-        crate::sweep::run(&args.cases, &args.out, &refs)?;
-        return Ok(true);
+        crate::sweep::run(&cases_dir, &args.out, &refs).map_err(AppError::Output)?;
+        return Ok(exit::OK);
     }
     let wants = |name: &str| args.case.as_deref().is_none_or(|c| name.contains(c));
-    if wants("kernels") || wants("operators") || wants("foundation") {
+    let mut checks: Vec<(Check, f64)> = Vec::new();
+    let mut runs = Vec::new();
+    let mut bad_input = false;
+    let mut failed_runs = 0;
+    if args.suite == Suite::Default
+        && (wants("kernels") || wants("operators") || wants("foundation"))
+    {
         let t = Instant::now();
         let found: Vec<Check> = sph_cases::foundation::checks()
             .into_iter()
@@ -28,112 +85,123 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<bool> {
         let wall = t.elapsed().as_secs_f64();
         checks.extend(found.into_iter().map(|c| (c, wall)));
     }
-    let mut scenes: Vec<_> = std::fs::read_dir(&args.cases)
-        .with_context(|| format!("reading scene directory {}", args.cases.display()))?
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir(&cases_dir)
+        .with_context(|| format!("reading scene directory {}", cases_dir.display()))
+        .map_err(AppError::Input)?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
     scenes.sort();
     for path in scenes {
-        let scene = crate::run::load_scene(&path)?;
-        let name = crate::run::scene_stem(&path);
+        let name = session::scene_stem(&path);
+        let scene = match session::load_scene(&path) {
+            Ok(s) => s,
+            // A malformed scene fails the run only when it is selected (by its file stem: its
+            // kind is unknown); the others still run and the summary is written.
+            Err(e) if wants(&name) => {
+                eprintln!("{}: {e}", path.display());
+                bad_input = true;
+                checks.push((
+                    Check::new(name.clone(), "scene parses", 0.0, 1.0, 0.0, e.to_string()),
+                    0.0,
+                ));
+                continue;
+            }
+            Err(e) => {
+                eprintln!(
+                    "{}: skipped (not selected), and it does not parse: {e}",
+                    path.display()
+                );
+                continue;
+            }
+        };
         if !wants(scene.case.name()) && !wants(&name) {
             continue;
         }
-        println!("{} ({:?} preset)", path.display(), args.preset);
-        let t = Instant::now();
-        let result = crate::run::run_scene(
+        println!("{} ({} preset)", path.display(), args.preset.name());
+        let scene = args.preset.apply(&scene);
+        let outcome = session::run_scene(
             &scene,
-            &name,
-            args.preset,
             &refs,
-            &args.out,
-            &crate::run::RunOptions {
-                frame_stride: args.frame_stride,
-                checkpoint_every: args.checkpoint_every,
+            &RunOptions {
+                out: args.out.clone(),
+                name: name.clone(),
+                checkpoint_every: args.checkpoint_every.map(|n| n as usize),
                 resume: args.resume,
+                vtk: args.vtk,
+                frame_every: args.frame_every.map(|n| n as usize),
+                progress_every: 10.0,
+                verbose: true,
             },
-        )?;
-        let wall = t.elapsed().as_secs_f64();
-        checks.extend(result.checks.into_iter().map(|c| (c, wall)));
-        runs.extend(result.runs);
-        println!("  [{wall:.1} s]");
+        );
+        match outcome {
+            Ok(o) => {
+                println!("  [{:.1} s]", o.wall_s);
+                failed_runs += o.failed_runs;
+                checks.extend(o.checks.into_iter().map(|c| (c, o.wall_s)));
+                runs.extend(o.runs);
+            }
+            Err(AppError::Input(e)) => {
+                eprintln!("{}: {e:#}", path.display());
+                bad_input = true;
+                checks.push((
+                    Check::new(name, "scene runs", 0.0, 1.0, 0.0, format!("{e:#}")),
+                    0.0,
+                ));
+            }
+            Err(e) => return Err(e),
+        }
     }
     if checks.is_empty() {
-        anyhow::bail!("no validation case matches {:?}", args.case);
+        return Err(AppError::Input(anyhow::anyhow!(
+            "no validation case matches {:?} in {}",
+            args.case,
+            cases_dir.display()
+        )));
     }
     let plain: Vec<Check> = checks.iter().map(|(c, _)| c.clone()).collect();
-    let passed = print_checks(&plain);
-    println!(
-        "({:?} preset, {:.1} s)",
-        args.preset,
-        t0.elapsed().as_secs_f64()
-    );
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating output directory {}", args.out.display()))?;
-    let summary = args.out.join("summary.json");
-    // Field names are part of the interface (documented in the README); keep them stable.
-    let json = serde_json::json!({
-        "preset": format!("{:?}", args.preset).to_lowercase(),
-        "git": git,
-        "references": args.references.as_ref().map_or("compiled-in cases/reference".to_string(), |d| d.display().to_string()),
-        "passed": passed,
-        "checks": checks.iter().map(|(c, wall_s)| serde_json::json!({
-            "case": c.case, "check": c.name, "value": c.value, "reference": c.reference,
-            "tolerance": c.tolerance, "pass": c.passed(), "wall_s": wall_s, "source": c.source,
-        })).collect::<Vec<_>>(),
-        "runs": runs,
-    });
-    std::fs::write(&summary, serde_json::to_string_pretty(&json)?)
-        .with_context(|| format!("writing {}", summary.display()))?;
-    println!("summary: {}", summary.display());
-    let report = crate::report::write(&args.out)?;
-    println!("report: {}", report.display());
-    Ok(passed)
-}
-
-/// `git rev-parse HEAD` (with `-dirty` if the tree has changes), or `"unknown"`.
-fn git_revision() -> String {
-    let run = |args: &[&str]| {
-        std::process::Command::new("git")
-            .args(args)
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    let passed = dgsph::cli::print_checks(&plain);
+    let wall_s = t0.elapsed().as_secs_f64();
+    println!("({} preset, {wall_s:.1} s)", args.preset.name());
+    let summary = Summary {
+        schema_version: SCHEMA_VERSION,
+        preset: args.preset.name().to_string(),
+        suite: args.suite.name().to_string(),
+        git,
+        references: args
+            .references
+            .as_ref()
+            .map_or("compiled-in cases/reference".to_string(), |d| {
+                d.display().to_string()
+            }),
+        passed: passed && failed_runs == 0 && !bad_input,
+        wall_s,
+        checks: checks
+            .iter()
+            .map(|(c, w)| CheckRecord::new(c, *w))
+            .collect(),
+        runs,
     };
-    match run(&["rev-parse", "HEAD"]) {
-        Some(rev) if run(&["status", "--porcelain"]).is_some_and(|s| !s.is_empty()) => {
-            format!("{rev}-dirty")
-        }
-        Some(rev) => rev,
-        None => "unknown".to_string(),
-    }
-}
-
-/// Prints the pass/fail table; returns true if every check passed.
-pub fn print_checks(checks: &[Check]) -> bool {
-    println!(
-        "\n{:<20} {:<48} {:>14} {:>14} {:>10}  result",
-        "case", "check", "value", "reference", "tolerance"
-    );
-    for c in checks {
-        println!(
-            "{:<20} {:<48} {:>14.6e} {:>14.6e} {:>10.1e}  {}",
-            c.case,
-            c.name,
-            c.value,
-            c.reference,
-            c.tolerance,
-            if c.passed() { "pass" } else { "FAIL" }
-        );
-    }
-    let failed = checks.iter().filter(|c| !c.passed()).count();
-    println!(
-        "\n{} checks: {} passed, {} failed",
-        checks.len(),
-        checks.len() - failed,
-        failed
-    );
-    failed == 0
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating output directory {}", args.out.display()))
+        .map_err(AppError::Output)?;
+    let path = args.out.join("summary.json");
+    let json = serde_json::to_vec_pretty(&summary)
+        .context("encoding summary.json")
+        .map_err(AppError::Output)?;
+    dgsph::output::write_atomic(&path, &json)
+        .with_context(|| format!("writing {}", path.display()))
+        .map_err(AppError::Output)?;
+    println!("summary: {}", path.display());
+    let report = dgsph::report::write(&args.out).map_err(AppError::Output)?;
+    println!("report: {}", report.display());
+    Ok(if bad_input {
+        exit::BAD_INPUT
+    } else if failed_runs > 0 {
+        exit::RUN_FAILED
+    } else if passed {
+        exit::OK
+    } else {
+        exit::CHECKS_FAILED
+    })
 }

@@ -1,19 +1,55 @@
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-/// One pass/fail comparison of a computed value with a reference value.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+/// What a check's value must satisfy.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Criterion {
+    /// `|value − reference| ≤ tolerance`.
+    Within {
+        /// Reference (exact or published) value.
+        reference: f64,
+        /// Allowed absolute deviation.
+        tolerance: f64,
+    },
+    /// `value ≤ bound`.
+    AtMost {
+        /// The bound.
+        bound: f64,
+    },
+    /// `value ≥ bound`.
+    AtLeast {
+        /// The bound.
+        bound: f64,
+    },
+}
+
+impl Criterion {
+    /// The criterion as text (`= 1.0 ± 0.01`, `≤ 0`, `≥ 5`).
+    pub fn describe(&self) -> String {
+        match *self {
+            Criterion::Within {
+                reference,
+                tolerance,
+            } => format!("{reference:.6e} ± {tolerance:.1e}"),
+            Criterion::AtMost { bound } => format!("≤ {bound}"),
+            Criterion::AtLeast { bound } => format!("≥ {bound}"),
+        }
+    }
+}
+
+/// One pass/fail comparison of a measured value with a reference or a bound. The value is
+/// always what was measured, never the bound.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Check {
     /// Case the check belongs to, e.g. `"kernels"` or `"elliptical_drop"`.
     pub case: String,
     /// What is compared, e.g. `"quintic 3d ∫W dV"`.
     pub name: String,
-    /// Computed value.
+    /// Measured value.
     pub value: f64,
-    /// Reference (exact or published) value.
-    pub reference: f64,
-    /// Allowed absolute deviation `|value − reference|`.
-    pub tolerance: f64,
-    /// Where the reference comes from.
+    /// What it must satisfy.
+    pub criterion: Criterion,
+    /// Where the reference or bound comes from.
     pub source: String,
 }
 
@@ -31,19 +67,75 @@ impl Check {
             case: case.into(),
             name: name.into(),
             value,
-            reference,
-            tolerance,
+            criterion: Criterion::Within {
+                reference,
+                tolerance,
+            },
             source: source.into(),
         }
     }
 
-    /// `|value − reference|`.
-    pub fn deviation(&self) -> f64 {
-        (self.value - self.reference).abs()
+    /// A check that `value ≤ bound`.
+    pub fn at_most(
+        case: impl Into<String>,
+        name: impl Into<String>,
+        value: f64,
+        bound: f64,
+        source: impl Into<String>,
+    ) -> Self {
+        Self {
+            case: case.into(),
+            name: name.into(),
+            value,
+            criterion: Criterion::AtMost { bound },
+            source: source.into(),
+        }
     }
 
-    /// True if the deviation is within tolerance (and the value is finite).
+    /// A check that `value ≥ bound`.
+    pub fn at_least(
+        case: impl Into<String>,
+        name: impl Into<String>,
+        value: f64,
+        bound: f64,
+        source: impl Into<String>,
+    ) -> Self {
+        Self {
+            case: case.into(),
+            name: name.into(),
+            value,
+            criterion: Criterion::AtLeast { bound },
+            source: source.into(),
+        }
+    }
+
+    /// True if the value is finite and meets the criterion.
     pub fn passed(&self) -> bool {
-        self.value.is_finite() && self.deviation() <= self.tolerance
+        self.value.is_finite()
+            && match self.criterion {
+                Criterion::Within {
+                    reference,
+                    tolerance,
+                } => (self.value - reference).abs() <= tolerance,
+                Criterion::AtMost { bound } => self.value <= bound,
+                Criterion::AtLeast { bound } => self.value >= bound,
+            }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn criteria_pass_and_fail_on_the_measured_value() {
+        assert!(Check::new("c", "n", 1.05, 1.0, 0.1, "s").passed());
+        assert!(!Check::new("c", "n", 1.2, 1.0, 0.1, "s").passed());
+        assert!(Check::at_most("c", "n", 0.0, 0.0, "s").passed());
+        assert!(!Check::at_most("c", "n", 1.0, 0.0, "s").passed());
+        let ratio = Check::at_least("c", "n", 88.8, 5.0, "s");
+        assert!(ratio.passed() && ratio.value == 88.8);
+        assert!(!Check::at_least("c", "n", f64::NAN, 5.0, "s").passed());
+        assert_eq!(ratio.criterion.describe(), "≥ 5");
     }
 }

@@ -18,8 +18,8 @@ pub enum CaseError {
     Invalid {
         /// Scene name or path.
         scene: String,
-        /// Offending key.
-        field: &'static str,
+        /// Offending key (`dx`, `fluid[1].radius`, ...).
+        field: String,
         /// What is wrong.
         message: String,
     },
@@ -42,6 +42,14 @@ pub enum CaseError {
     /// The walls of a case are inconsistent.
     #[error("case walls: {0}")]
     Walls(String),
+    /// A measurement of the case could not be taken (e.g. probes on a state that has blown up).
+    #[error("measuring {what}: {message}")]
+    Measure {
+        /// Which measurement.
+        what: &'static str,
+        /// Why.
+        message: String,
+    },
     /// A time step failed.
     #[error("{scheme}: {source}")]
     Step {

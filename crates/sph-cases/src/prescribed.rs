@@ -2,12 +2,15 @@
 //! field `u = G x` with the Euler and the predictor–corrector position updates; the volume is
 //! lost (or gained) at the exact rate `ln det F / Δt` per unit time, with `F = I + ΔtG` (Euler)
 //! and `F = I + ΔtG + Δt²G²/2` (predictor–corrector, i.e. Heun's method for a steady linear
-//! field). Effects: none (no pressure, no neighbours).
+//! field). Effects: none (no pressure, no neighbours): the case advances its particles itself
+//! ([`Case::advance`]), with the scheme naming the position update.
 
+use crate::case::{Case, Column, Finish, Results, Setup};
 use crate::measure::{hull_measure, second_moments};
 use crate::reference::References;
-use crate::{Check, Scene};
-use sph_core::{Dim, MatrixOps, VectorOps};
+use crate::{CaseError, Check, Scene};
+use sph_core::{Dim, MatrixOps, ParticleSet, VectorOps};
+use sph_integrators::{Scheme, SchemeKind, Simulation, StepError, StepReport};
 
 /// Position-update rule of Section 3.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -19,7 +22,15 @@ pub enum PositionUpdate {
 }
 
 impl PositionUpdate {
-    /// Short name (`euler`, `pc`), as in the reference table.
+    /// The update of a scheme: Euler's for Euler and DG, Heun's for the predictor–corrector.
+    pub fn of(scheme: SchemeKind) -> Self {
+        match scheme {
+            SchemeKind::PredictorCorrector => PositionUpdate::PredictorCorrector,
+            _ => PositionUpdate::Euler,
+        }
+    }
+
+    /// Short name, as in the reference table (`euler`, `pc`).
     pub fn name(self) -> &'static str {
         match self {
             PositionUpdate::Euler => "euler",
@@ -38,6 +49,19 @@ impl PositionUpdate {
         // predictor–corrector has det F − 1 = Δt⁴ I2²/4 ≈ 6e-9).
         let inv = sph_operators::invariants::<D>(&(f - i));
         (inv.i1 + inv.i2 + inv.i3).ln_1p() / dt
+    }
+
+    /// One step of `x` under `u = G x`.
+    #[inline]
+    pub fn advect<D: Dim>(self, x: D::Vector, g: D::Matrix, dt: f64) -> D::Vector {
+        let u = g * x;
+        match self {
+            PositionUpdate::Euler => x + u * dt,
+            PositionUpdate::PredictorCorrector => {
+                let xp = x + u * dt;
+                x + (u + g * xp) * (0.5 * dt)
+            }
+        }
     }
 }
 
@@ -67,6 +91,21 @@ pub fn fit_slope(x: &[f64], y: &[f64]) -> f64 {
     sxy / sxx
 }
 
+fn measure<D: Dim>(p: &[D::Vector]) -> (f64, f64) {
+    (
+        hull_measure::<D>(p).unwrap_or(f64::NAN),
+        second_moments::<D>(p).measure,
+    )
+}
+
+fn slopes(series: &[(f64, f64, f64)]) -> (f64, f64) {
+    let (h0, m0) = (series[0].1, series[0].2);
+    let t: Vec<f64> = series.iter().map(|s| s.0).collect();
+    let lh: Vec<f64> = series.iter().map(|s| (s.1 / h0).ln()).collect();
+    let lm: Vec<f64> = series.iter().map(|s| (s.2 / m0).ln()).collect();
+    (fit_slope(&t, &lh), fit_slope(&t, &lm))
+}
+
 /// Advects `points` with `u = G x` for `steps` steps of `dt`.
 pub fn run_prescribed<D: Dim>(
     mut points: Vec<D::Vector>,
@@ -76,36 +115,21 @@ pub fn run_prescribed<D: Dim>(
     update: PositionUpdate,
 ) -> PrescribedRun {
     let mut series = Vec::with_capacity(steps + 1);
-    let measure = |p: &[D::Vector]| {
-        (
-            hull_measure::<D>(p).unwrap_or(f64::NAN),
-            second_moments::<D>(p).measure,
-        )
-    };
-    let (h0, m0) = measure(&points);
+    let (h0, m0) = measure::<D>(&points);
     series.push((0.0, h0, m0));
     for n in 1..=steps {
         for x in points.iter_mut() {
-            let u = g * *x;
-            *x = match update {
-                PositionUpdate::Euler => *x + u * dt,
-                PositionUpdate::PredictorCorrector => {
-                    let xp = *x + u * dt;
-                    *x + (u + g * xp) * (0.5 * dt)
-                }
-            };
+            *x = update.advect::<D>(*x, g, dt);
         }
-        let (h, m) = measure(&points);
+        let (h, m) = measure::<D>(&points);
         series.push((n as f64 * dt, h, m));
     }
-    let t: Vec<f64> = series.iter().map(|s| s.0).collect();
-    let lh: Vec<f64> = series.iter().map(|s| (s.1 / h0).ln()).collect();
-    let lm: Vec<f64> = series.iter().map(|s| (s.2 / m0).ln()).collect();
+    let (slope_hull, slope_moments) = slopes(&series);
     PrescribedRun {
         update,
         particles: points.len(),
-        slope_hull: fit_slope(&t, &lh),
-        slope_moments: fit_slope(&t, &lm),
+        slope_hull,
+        slope_moments,
         exact_slope: update.exact_slope::<D>(&g, dt),
         series,
     }
@@ -139,47 +163,162 @@ pub fn paper_setup<D: Dim>() -> (D::Vector, D::Matrix) {
     (semi, g)
 }
 
-/// Runs both updates for a prescribed-field scene and returns the runs and their checks
-/// against the exact slopes (0.5 % tolerance, the bar) and the reference table.
-pub fn run_scene<D: Dim>(scene: &Scene, refs: &References) -> (Vec<PrescribedRun>, Vec<Check>) {
-    let (semi, g) = paper_setup::<D>();
-    let steps = (scene.t_end / scene.dt + 1e-9).floor() as usize;
-    let case = scene.case.name();
-    let table_case = if D::DIM == 2 { "2d_sec3" } else { "3d_sec3" };
-    let mut runs = Vec::new();
-    let mut checks = Vec::new();
-    for update in [PositionUpdate::Euler, PositionUpdate::PredictorCorrector] {
-        let pts = crate::geometry::ellipsoid_lattice::<D>(semi, scene.dx);
-        let run = run_prescribed::<D>(pts, g, scene.dt, steps, update);
-        let tol = 0.005 * run.exact_slope.abs();
-        let label = format!("{} {}D", update.name(), D::DIM);
-        checks.push(Check::new(
-            case,
-            format!("{label} slope (hull)"),
-            run.slope_hull,
-            run.exact_slope,
-            tol,
-            "ln det F/Δt, exact",
-        ));
-        checks.push(Check::new(
-            case,
-            format!("{label} slope (2nd moments)"),
-            run.slope_moments,
-            run.exact_slope,
-            tol,
-            "ln det F/Δt, exact",
-        ));
-        if let Some(tab) = refs.volume_slope(table_case, update.name(), scene.dt) {
-            checks.push(Check::new(
+/// The Section 3 case: the scene's schemes name the position update (Euler, or the
+/// predictor–corrector's Heun update).
+pub struct PrescribedCase<D: Dim> {
+    scene: Scene,
+    update: PositionUpdate,
+    g: D::Matrix,
+    table_slope: Option<f64>,
+    series: Vec<(f64, f64, f64)>,
+}
+
+impl<D: Dim> PrescribedCase<D> {
+    /// The case of `scene` run with `scheme`'s position update.
+    pub fn new(scene: &Scene, scheme: SchemeKind, refs: &References) -> Self {
+        let update = PositionUpdate::of(scheme);
+        let table_case = if D::DIM == 2 { "2d_sec3" } else { "3d_sec3" };
+        Self {
+            scene: scene.clone(),
+            update,
+            g: paper_setup::<D>().1,
+            table_slope: refs.volume_slope(table_case, update.name(), scene.dt),
+            series: Vec::new(),
+        }
+    }
+}
+
+impl<D: Dim> Case<D> for PrescribedCase<D> {
+    fn setup(&self) -> Result<Setup<D>, CaseError> {
+        let (semi, _) = paper_setup::<D>();
+        let pts = crate::geometry::ellipsoid_lattice::<D>(semi, self.scene.dx);
+        let mut particles =
+            ParticleSet::<D>::from_positions(pts, self.scene.dx.powi(D::DIM as i32), 1.0);
+        for (u, x) in particles.velocities.iter_mut().zip(&particles.positions) {
+            *u = self.g * *x;
+        }
+        Ok(Setup {
+            particles,
+            config: self.scene.sim_config(),
+            walls: None,
+            carved: 0,
+        })
+    }
+
+    fn columns(&self) -> Vec<Column> {
+        vec![
+            Column::new("measure_hull", "volume", "convex-hull area/volume"),
+            Column::new("measure_moments", "volume", "second-moment area/volume"),
+        ]
+    }
+
+    fn sample_every(&self, _steps: usize) -> usize {
+        1
+    }
+
+    fn frame_every(&self) -> usize {
+        1
+    }
+
+    fn advance(
+        &mut self,
+        sim: &mut Simulation<D>,
+        _scheme: &mut Scheme,
+        dt: f64,
+    ) -> Result<StepReport, StepError> {
+        let (g, update) = (self.g, self.update);
+        let p = &mut sim.particles;
+        for (x, u) in p.positions.iter_mut().zip(p.velocities.iter_mut()) {
+            *x = update.advect::<D>(*x, g, dt);
+            *u = g * *x;
+        }
+        if let Some(particle) = p.positions.iter().position(|x| !x.is_finite()) {
+            return Err(StepError::NonFinite {
+                step: sim.step,
+                t: sim.t,
+                field: "position",
+                particle,
+            });
+        }
+        let report = StepReport {
+            step: sim.step,
+            t: sim.t + dt,
+            dt,
+            ..StepReport::default()
+        };
+        sim.t += dt;
+        sim.step += 1;
+        Ok(report)
+    }
+
+    fn observe(
+        &mut self,
+        sim: &Simulation<D>,
+        _report: Option<&StepReport>,
+        _short: bool,
+        out: &mut Vec<f64>,
+    ) -> Result<(), CaseError> {
+        let (h, m) = measure::<D>(&sim.particles.positions);
+        // The step's time as n Δt (not the running sum), as the exact slope is per Δt.
+        self.series.push((sim.step as f64 * self.scene.dt, h, m));
+        out.extend_from_slice(&[h, m]);
+        Ok(())
+    }
+
+    fn finish(&mut self, _sim: &Simulation<D>) -> Result<Finish, CaseError> {
+        let mut results = Results::new();
+        if self.series.len() >= 2 {
+            let (hull, moments) = slopes(&self.series);
+            results.insert("slope_hull".into(), hull);
+            results.insert("slope_moments".into(), moments);
+        }
+        results.insert(
+            "exact_slope".into(),
+            self.update.exact_slope::<D>(&self.g, self.scene.dt),
+        );
+        if let Some(s) = self.table_slope {
+            results.insert("table_slope".into(), s);
+        }
+        Ok(Finish {
+            tables: Vec::new(),
+            results,
+        })
+    }
+
+    fn checks(&self, scheme: SchemeKind, _label: &str, r: &Results) -> Vec<Check> {
+        let get = |k: &str| r.get(k).copied().unwrap_or(f64::NAN);
+        let case = self.scene.case.name();
+        let exact = get("exact_slope");
+        let tol = 0.005 * exact.abs();
+        let label = format!("{} {}D", scheme.name(), D::DIM);
+        let mut out = vec![
+            Check::new(
+                case,
+                format!("{label} slope (hull)"),
+                get("slope_hull"),
+                exact,
+                tol,
+                "ln det F/Δt, exact",
+            ),
+            Check::new(
+                case,
+                format!("{label} slope (2nd moments)"),
+                get("slope_moments"),
+                exact,
+                tol,
+                "ln det F/Δt, exact",
+            ),
+        ];
+        if let Some(tab) = self.table_slope {
+            out.push(Check::new(
                 case,
                 format!("{label} exact slope vs table"),
-                run.exact_slope,
+                exact,
                 tab,
                 1e-8 * tab.abs().max(1e-12),
                 "volume_slopes.csv",
             ));
         }
-        runs.push(run);
+        out
     }
-    (runs, checks)
 }

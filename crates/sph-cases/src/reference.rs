@@ -163,9 +163,10 @@ pub struct References {
     slopes: Vec<SlopeRow>,
     ghia_u: GhiaTable,
     ghia_v: GhiaTable,
+    dam_break: Vec<(f64, f64)>,
 }
 
-const EMBEDDED: [(&str, &str); 5] = [
+const EMBEDDED: [(&str, &str); 6] = [
     (
         "elliptical_drop_2d.csv",
         include_str!("../../../cases/reference/elliptical_drop_2d.csv"),
@@ -186,16 +187,21 @@ const EMBEDDED: [(&str, &str); 5] = [
         "ghia_v_horizontal.csv",
         include_str!("../../../cases/reference/ghia_v_horizontal.csv"),
     ),
+    (
+        "dam_break_martin_moyce.csv",
+        include_str!("../../../cases/reference/dam_break_martin_moyce.csv"),
+    ),
 ];
 
 impl References {
     /// The file names of the reference set (in `cases/reference/`).
-    pub const FILES: [&'static str; 5] = [
+    pub const FILES: [&'static str; 6] = [
         EMBEDDED[0].0,
         EMBEDDED[1].0,
         EMBEDDED[2].0,
         EMBEDDED[3].0,
         EMBEDDED[4].0,
+        EMBEDDED[5].0,
     ];
 
     /// The reference set compiled into the library from `cases/reference/`.
@@ -246,12 +252,25 @@ impl References {
         let ghia_u = GhiaTable::parse(f, &t)?;
         let (f, t) = get(4);
         let ghia_v = GhiaTable::parse(f, &t)?;
+        let (f, t) = get(5);
+        let dam_break: Vec<(f64, f64)> = numeric_rows(f, &t, 2)?
+            .into_iter()
+            .map(|v| (v[0], v[1]))
+            .collect();
+        if dam_break.len() < 2 || dam_break.windows(2).any(|w| w[1].0 <= w[0].0) {
+            return Err(CaseError::Reference {
+                file: f.to_string(),
+                line: 0,
+                message: "needs at least two rows with increasing T".into(),
+            });
+        }
         Ok(Self {
             drop_2d,
             drop_3d,
             slopes,
             ghia_u,
             ghia_v,
+            dam_break,
         })
     }
 
@@ -282,6 +301,25 @@ impl References {
     /// Ghia et al.'s `v(x, 0.5)` at `re` as `(x, v)` rows (NaN values if `re` is not tabulated).
     pub fn ghia_v_horizontal(&self, re: f64) -> Vec<(f64, f64)> {
         self.ghia_v.at(re)
+    }
+
+    /// Martin & Moyce's (1952) surge front `(T, Z)`, `T = t√(2g/a)`, `Z = z/a` (n² = 2).
+    pub fn dam_break_front(&self) -> &[(f64, f64)] {
+        &self.dam_break
+    }
+
+    /// Martin & Moyce's front `Z` at `T`, linearly interpolated; `None` outside the data.
+    pub fn dam_break_front_at(&self, t: f64) -> Option<f64> {
+        let d = &self.dam_break;
+        let k = d.partition_point(|r| r.0 <= t);
+        if k == 0 || k == d.len() && d[k - 1].0 < t {
+            return None;
+        }
+        if k == d.len() {
+            return Some(d[k - 1].1);
+        }
+        let (a, b) = (d[k - 1], d[k]);
+        Some(a.1 + (b.1 - a.1) * (t - a.0) / (b.0 - a.0))
     }
 }
 

@@ -1,34 +1,54 @@
-//! Scene files: TOML under the repository's `cases/` directory.
+//! Scene files: TOML under the repository's `cases/` directory (every key: `docs/scenes.md`).
 //!
 //! ```toml
-//! case = "elliptical_drop"       # elliptical_drop | spheroid_drop | prescribed_ellipse | prescribed_ellipsoid
+//! case = "flow"                  # flow (default) | dam_break | the paper's cases, see CaseKind
 //! dim = 2
-//! dx = 0.025                     # initial particle spacing
-//! h_over_dx = 1.3                # smoothing length / spacing (default 1.3)
-//! kernel = "quintic_spline"      # quintic_spline | wendland_c2 | cubic_spline (default quintic_spline)
-//! dt = 2e-4                      # fixed time step
-//! t_end = 0.003
-//! schemes = ["euler", "predictor_corrector", "dg"]
-//! [free_surface]                 # absent: no free surface (Dirichlet rows)
+//! dx = 0.02                      # initial particle spacing (the lattice of every block)
+//! kernel = "wendland_c2"         # quintic_spline (default) | wendland_c2 | cubic_spline
+//! dt = 1e-3                      # fixed time step
+//! t_end = 1.0
+//! schemes = ["dg"]
+//! [[fluid]]                      # box | ellipse | circle | polygon, filled on the lattice
+//! shape = "box"
+//! min = [0.0, 0.0]
+//! max = [0.5, 1.0]
+//! [[wall]]                       # containers (faces may be open) and solid obstacles
+//! min = [0.0, 0.0]
+//! max = [2.0, 1.5]
+//! open = ["+y"]
+//! [free_surface]                 # absent: no free surface (no Dirichlet rows)
 //! div_r_threshold = 1.5
-//! [quick]                        # overrides for `cargo xtask validate` (quick preset)
-//! dx = 0.05
+//! [effects]                      # absent effects are not computed
+//! gravity = [0.0, -9.81, 0.0]
 //! ```
 //!
-//! Unknown keys are errors, and every value is range-checked by [`Scene::validate`].
+//! Unknown keys are errors, every value is range-checked by [`Scene::validate`] (errors name
+//! the key), and what a scene would allocate is bounded before anything is allocated
+//! ([`Scene::estimate`]).
 
 use crate::CaseError;
+use crate::blocks::{
+    CheckSpec, DiagnosticKind, DomainSpec, FluidBlock, FluidShape, LimitsSpec, OutputSpec,
+    WallBlock, WallKind, axis_index, face_index,
+};
 use serde::{Deserialize, Serialize};
-use sph_integrators::WallCondition;
-use sph_integrators::{Effects, FreeSurface, SchemeKind, Shifting, SimConfig, Viscosity};
+use sph_integrators::{
+    Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, SchemeKind, Shifting, SimConfig,
+    Viscosity, WallCondition,
+};
 use sph_kernels::KernelKind;
 use sph_operators::HessianForm;
 use sph_pressure::SolverKind;
 
-/// Which case a scene runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// Which case a scene runs: what it measures and checks. `flow` and `dam_break` take their
+/// geometry from the scene's `[[fluid]]` and `[[wall]]` blocks; the paper's cases build theirs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CaseKind {
+    /// Any flow posed by the scene's blocks: records kinetic energy, volume, penetrations; checks
+    /// what the scene's `[[check]]` tables declare. The default.
+    #[default]
+    Flow,
     /// 2D free-surface drop of the paper's Section 5 (Eq. 29).
     EllipticalDrop,
     /// 3D free-surface prolate spheroid of Section 5 (Eq. 30).
@@ -43,9 +63,20 @@ pub enum CaseKind {
 }
 
 impl CaseKind {
+    /// Every case.
+    pub const ALL: [CaseKind; 6] = [
+        CaseKind::Flow,
+        CaseKind::EllipticalDrop,
+        CaseKind::SpheroidDrop,
+        CaseKind::PrescribedEllipse,
+        CaseKind::PrescribedEllipsoid,
+        CaseKind::LidDrivenCavity,
+    ];
+
     /// The case name as written in scene files.
     pub fn name(self) -> &'static str {
         match self {
+            CaseKind::Flow => "flow",
             CaseKind::EllipticalDrop => "elliptical_drop",
             CaseKind::SpheroidDrop => "spheroid_drop",
             CaseKind::PrescribedEllipse => "prescribed_ellipse",
@@ -54,21 +85,25 @@ impl CaseKind {
         }
     }
 
-    /// The dimension the case is defined in (the cavity's default: 2).
+    /// The dimension the case is defined in (the default of those that run in both: 2).
     pub fn dim(self) -> usize {
         match self {
-            CaseKind::EllipticalDrop | CaseKind::PrescribedEllipse => 2,
             CaseKind::SpheroidDrop | CaseKind::PrescribedEllipsoid => 3,
-            CaseKind::LidDrivenCavity => 2,
+            _ => 2,
         }
     }
 
     /// Whether the case can run in `dim` dimensions.
     pub fn supports_dim(self, dim: usize) -> bool {
         match self {
-            CaseKind::LidDrivenCavity => dim == 2 || dim == 3,
+            CaseKind::LidDrivenCavity | CaseKind::Flow => dim == 2 || dim == 3,
             _ => dim == self.dim(),
         }
+    }
+
+    /// Whether the scene's `[[fluid]]`/`[[wall]]`/`[domain]` blocks pose the geometry.
+    pub fn uses_blocks(self) -> bool {
+        matches!(self, CaseKind::Flow)
     }
 }
 
@@ -164,9 +199,10 @@ pub struct QuickOverrides {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
-    /// Case to run.
+    /// Case to run. Default `flow`.
+    #[serde(default)]
     pub case: CaseKind,
-    /// Spatial dimension (must match the case).
+    /// Spatial dimension (2 or 3; must suit the case).
     pub dim: usize,
     /// Initial particle spacing.
     pub dx: f64,
@@ -183,6 +219,8 @@ pub struct Scene {
     pub t_end: f64,
     /// Schemes to run (each from the same initial state).
     pub schemes: Vec<SchemeKind>,
+    /// Reference density `ρ₀`. Default 1.
+    pub rho0: Option<f64>,
     /// Free surface; absent means none.
     pub free_surface: Option<FreeSurface>,
     /// Linear solver. Default BiCGSTAB + Jacobi.
@@ -195,9 +233,29 @@ pub struct Scene {
     pub dg_hessian: DgHessianChoice,
     /// Lid-driven cavity parameters (required by, and only allowed for, `lid_driven_cavity`).
     pub cavity: Option<CavitySpec>,
+    /// How the walls' no-penetration condition enters the projection (block-posed walls;
+    /// the cavity has its own key). Default `continuation`.
+    pub wall_condition: Option<WallCondition>,
     /// Explicit effects. Default: none.
     #[serde(default)]
     pub effects: EffectsSpec,
+    /// The periodic box (`flow`, `dam_break`).
+    pub domain: Option<DomainSpec>,
+    /// Fluid blocks (`flow`, `dam_break`).
+    #[serde(default)]
+    pub fluid: Vec<FluidBlock>,
+    /// Wall blocks (`flow`, `dam_break`).
+    #[serde(default)]
+    pub wall: Vec<WallBlock>,
+    /// What a run records and writes.
+    #[serde(default)]
+    pub output: OutputSpec,
+    /// Allocation bounds and the blow-up limit.
+    #[serde(default)]
+    pub limits: LimitsSpec,
+    /// Pass criteria on the run's results, declared before the run.
+    #[serde(default)]
+    pub check: Vec<CheckSpec>,
     /// Quick-preset overrides.
     pub quick: Option<QuickOverrides>,
 }
@@ -209,6 +267,37 @@ fn default_h_over_dx() -> f64 {
 fn default_kernel() -> KernelKind {
     KernelKind::QuinticSpline
 }
+
+/// What a scene will allocate and run, estimated before anything is allocated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    /// Fluid particles.
+    pub fluid: f64,
+    /// Wall particles.
+    pub walls: f64,
+    /// Probe points of the case's measurements.
+    pub probes: f64,
+    /// Neighbours per particle (with itself).
+    pub neighbors: f64,
+    /// Memory of one run in bytes.
+    pub bytes: f64,
+    /// Steps of one scheme.
+    pub steps: f64,
+}
+
+impl Estimate {
+    /// Fluid and wall particles.
+    pub fn particles(&self) -> f64 {
+        self.fluid + self.walls
+    }
+}
+
+/// Bytes per particle other than the neighbour lists and the matrix: positions, velocities,
+/// scratch vectors and matrices of the schemes (≈ 60 f64 in 3D).
+const BYTES_PER_PARTICLE: f64 = 600.0;
+/// Bytes per neighbour pair: the list's `u32` index, the matrix value and the gauge's bordered
+/// copy of both (4 + 8 + 4 + 8), plus the AMG's coarse levels and the per-chunk scratch.
+const BYTES_PER_PAIR: f64 = 40.0;
 
 impl Scene {
     /// The paper's drop setup (Section 5) for `case` at spacing `dx` and step `dt`, run to
@@ -224,20 +313,60 @@ impl Scene {
             dt,
             t_end,
             schemes: SchemeKind::ALL.to_vec(),
+            rho0: None,
             free_surface: Some(FreeSurface::default_for(case.dim())),
             solver: SolverKind::default(),
             solver_tolerance: None,
             dg_hessian: DgHessianChoice::default(),
             cavity: None,
+            wall_condition: None,
             effects: EffectsSpec::default(),
+            domain: None,
+            fluid: Vec::new(),
+            wall: Vec::new(),
+            output: OutputSpec::default(),
+            limits: LimitsSpec::default(),
+            check: Vec::new(),
             quick: None,
         }
     }
 
+    /// Reference density (default 1).
+    pub fn rho0(&self) -> f64 {
+        self.rho0.unwrap_or(1.0)
+    }
+
+    /// Smoothing length `h = h_over_dx · dx`.
+    pub fn h(&self) -> f64 {
+        self.h_over_dx * self.dx
+    }
+
+    /// Kernel support radius.
+    pub fn support(&self) -> f64 {
+        self.kernel.support_factor() * self.h()
+    }
+
+    /// Number of full steps and whether a shorter last step remains.
+    pub fn steps(&self) -> (usize, Option<f64>) {
+        let full = (self.t_end / self.dt + 1e-9).floor() as usize;
+        let rest = self.t_end - full as f64 * self.dt;
+        (full, (rest > 1e-9 * self.dt).then_some(rest))
+    }
+
+    /// The per-step diagnostics the scene's output asks for.
+    pub fn diagnostics(&self) -> Diagnostics {
+        Diagnostics {
+            det_f: self.output.diagnostics.contains(&DiagnosticKind::DetF),
+            div_u: self.output.diagnostics.contains(&DiagnosticKind::DivU),
+        }
+    }
+
     /// The numerical configuration of the scene (kernel, h, free surface, solver, DG Hessian,
-    /// declared effects). Cases add what they derive (e.g. the cavity's viscosity).
+    /// declared effects, diagnostics, periodic axes, limits). Cases add what they derive (e.g.
+    /// the cavity's viscosity).
     pub fn sim_config(&self) -> SimConfig {
-        let mut config = SimConfig::new(self.kernel, self.h_over_dx * self.dx);
+        let mut config = SimConfig::new(self.kernel, self.h());
+        config.rho0 = self.rho0();
         config.free_surface = self.free_surface;
         config.solver = self.solver;
         if let Some(tol) = self.solver_tolerance {
@@ -252,16 +381,48 @@ impl Scene {
                 spacing: self.dx,
             }),
         };
+        config.diagnostics = self.diagnostics();
+        config.periodic = self.periodic_axes();
+        config.limits = Limits {
+            max_displacement: self.limits.max_displacement.unwrap_or(1.0),
+        };
         config
     }
 
-    /// Parses and validates a scene; `name` is used in error messages.
+    /// The periodic axes of `[domain]`, if any.
+    pub fn periodic_axes(&self) -> Option<PeriodicAxes> {
+        let d = self.domain.as_ref()?;
+        if d.periodic.is_empty() {
+            return None;
+        }
+        let mut axes = [false; 3];
+        for a in &d.periodic {
+            axes[axis_index(a)?] = true;
+        }
+        let corner = |v: &Option<Vec<f64>>| -> Option<[f64; 3]> {
+            let v = v.as_ref()?;
+            Some(std::array::from_fn(|k| v.get(k).copied().unwrap_or(0.0)))
+        };
+        Some(PeriodicAxes {
+            lo: corner(&d.min)?,
+            hi: corner(&d.max)?,
+            axes,
+        })
+    }
+
+    /// Parses and validates a scene (and its quick-preset variant); `name` is used in error
+    /// messages.
     pub fn parse(name: &str, text: &str) -> Result<Self, CaseError> {
         let scene: Scene = toml::from_str(text).map_err(|e| CaseError::Parse {
             scene: name.to_string(),
             message: e.to_string(),
         })?;
         scene.validate(name)?;
+        if scene.quick.is_some() {
+            scene
+                .quick()
+                .validate(&format!("{name} (with its [quick] overrides)"))?;
+        }
         Ok(scene)
     }
 
@@ -285,301 +446,820 @@ impl Scene {
         s
     }
 
+    /// What the scene would allocate and run (particle, probe and step counts, memory), from
+    /// its geometry alone.
+    pub fn estimate(&self) -> Estimate {
+        let d = self.dim as i32;
+        let dx = self.dx;
+        let cells = |v: f64| v / dx.powi(d);
+        let layers =
+            |l: Option<usize>| l.map_or((self.support() / dx - 1e-9).ceil().max(1.0), |l| l as f64);
+        let (fluid, walls, probes) = match self.case {
+            CaseKind::EllipticalDrop | CaseKind::PrescribedEllipse => {
+                (cells(std::f64::consts::PI * 0.7), 0.0, 0.0)
+            }
+            CaseKind::SpheroidDrop | CaseKind::PrescribedEllipsoid => {
+                (cells(4.0 / 3.0 * std::f64::consts::PI * 0.49), 0.0, 0.0)
+            }
+            CaseKind::LidDrivenCavity => {
+                let c = self.cavity.as_ref();
+                let l = layers(c.and_then(|c| c.wall_layers));
+                let n = 1.0 / dx;
+                let probe = c.and_then(|c| c.probe_spacing).unwrap_or(dx);
+                (
+                    n.powi(d),
+                    (n + 2.0 * l).powi(d) - n.powi(d),
+                    (1.0 / probe).round().max(1.0).powi(d),
+                )
+            }
+            CaseKind::Flow => {
+                let fluid: f64 = self
+                    .fluid
+                    .iter()
+                    .map(|b| cells(block_measure(b, self.dim)))
+                    .sum();
+                let walls: f64 = self
+                    .wall
+                    .iter()
+                    .map(|w| {
+                        let ext = |k: usize| {
+                            w.max.get(k).copied().unwrap_or(0.0)
+                                - w.min.get(k).copied().unwrap_or(0.0)
+                        };
+                        let inner: f64 = (0..self.dim).map(ext).product();
+                        match w.kind {
+                            WallKind::Solid => cells(inner),
+                            WallKind::Container => {
+                                let t = layers(w.layers) * dx;
+                                let outer: f64 = (0..self.dim).map(|k| ext(k) + 2.0 * t).product();
+                                cells(outer - inner)
+                            }
+                        }
+                    })
+                    .sum();
+                (fluid, walls, 0.0)
+            }
+        };
+        let support = self.support() / dx;
+        let neighbors = if self.dim == 2 {
+            std::f64::consts::PI * support * support
+        } else {
+            4.0 / 3.0 * std::f64::consts::PI * support.powi(3)
+        };
+        let n = fluid + walls;
+        Estimate {
+            fluid,
+            walls,
+            probes,
+            neighbors,
+            bytes: n * (BYTES_PER_PARTICLE + BYTES_PER_PAIR * neighbors) + probes * 100.0,
+            steps: (self.t_end / self.dt).ceil(),
+        }
+    }
+
+    /// Whether `self` may continue a run written under `written` (its checkpoint's scene): the
+    /// same physics, with only these keys free to differ — when it ends (`t_end`), which schemes
+    /// the command runs, how the (same) linear systems are solved (`solver`,
+    /// `solver_tolerance`) and what is recorded and checked (`output`, `check`, the cavity's
+    /// `snapshots`, `sample_every`, `ghia_tolerance`, `check_ghia`, the `quick` table). Returns
+    /// the keys that differ otherwise.
+    pub fn resume_differences(&self, written: &Scene) -> Vec<String> {
+        let normalise = |s: &Scene| {
+            let mut s = s.clone();
+            s.t_end = 0.0;
+            s.schemes.clear();
+            s.solver = SolverKind::default();
+            s.solver_tolerance = None;
+            s.output = OutputSpec::default();
+            s.check.clear();
+            s.quick = None;
+            if let Some(c) = s.cavity.as_mut() {
+                c.snapshots.clear();
+                c.sample_every = None;
+                c.ghia_tolerance = None;
+                c.check_ghia = None;
+            }
+            s
+        };
+        let (a, b) = (normalise(self), normalise(written));
+        if a == b {
+            return Vec::new();
+        }
+        let table = |s: &Scene| match toml::Value::try_from(s) {
+            Ok(toml::Value::Table(t)) => t,
+            _ => toml::map::Map::new(),
+        };
+        let (ta, tb) = (table(&a), table(&b));
+        let mut keys: Vec<String> = ta
+            .keys()
+            .chain(tb.keys())
+            .filter(|k| ta.get(*k) != tb.get(*k))
+            .cloned()
+            .collect();
+        keys.sort();
+        keys.dedup();
+        if keys.is_empty() {
+            keys.push("(a value that TOML cannot show)".into());
+        }
+        keys
+    }
+
     /// Range and consistency checks; errors name the key.
     pub fn validate(&self, name: &str) -> Result<(), CaseError> {
-        let bad = |field: &'static str, message: String| {
-            Err(CaseError::Invalid {
-                scene: name.to_string(),
+        Validator { scene: self, name }.run()
+    }
+}
+
+/// Area (2D) or volume (3D) of a fluid block, for estimates (0 for an invalid block).
+fn block_measure(b: &FluidBlock, dim: usize) -> f64 {
+    let pi = std::f64::consts::PI;
+    let v = |o: &Option<Vec<f64>>| o.clone().unwrap_or_default();
+    match b.shape {
+        FluidShape::Box => {
+            let (lo, hi) = (v(&b.min), v(&b.max));
+            (0..dim)
+                .map(|k| hi.get(k).unwrap_or(&0.0) - lo.get(k).unwrap_or(&0.0))
+                .product::<f64>()
+                .max(0.0)
+        }
+        FluidShape::Ellipse | FluidShape::Ellipsoid => {
+            let s: f64 = v(&b.semi_axes).iter().take(dim).product();
+            if dim == 2 { pi * s } else { 4.0 / 3.0 * pi * s }
+        }
+        FluidShape::Circle | FluidShape::Sphere => {
+            let r = b.radius.unwrap_or(0.0);
+            if dim == 2 {
+                pi * r * r
+            } else {
+                4.0 / 3.0 * pi * r.powi(3)
+            }
+        }
+        FluidShape::Polygon => {
+            let p = b.vertices.clone().unwrap_or_default();
+            let mut twice = 0.0;
+            for k in 0..p.len() {
+                let (a, c) = (p[k], p[(k + 1) % p.len()]);
+                twice += a[0] * c[1] - a[1] * c[0];
+            }
+            0.5 * twice.abs()
+        }
+    }
+}
+
+/// The checks of [`Scene::validate`], one method per table.
+struct Validator<'a> {
+    scene: &'a Scene,
+    name: &'a str,
+}
+
+type Check = Result<(), CaseError>;
+
+fn positive(x: f64) -> bool {
+    x.is_finite() && x > 0.0
+}
+
+impl Validator<'_> {
+    fn bad(&self, field: impl Into<String>, message: impl Into<String>) -> Check {
+        Err(CaseError::Invalid {
+            scene: self.name.to_string(),
+            field: field.into(),
+            message: message.into(),
+        })
+    }
+
+    /// `v` has `dim` finite entries.
+    fn vector(&self, field: &str, v: &[f64]) -> Check {
+        let d = self.scene.dim;
+        if v.len() != d {
+            return self.bad(
                 field,
-                message,
-            })
-        };
-        let positive = |x: f64| x.is_finite() && x > 0.0;
-        if !self.case.supports_dim(self.dim) {
-            return bad(
+                format!("must have {d} entries (dim = {d}), got {}", v.len()),
+            );
+        }
+        if v.iter().any(|x| !x.is_finite()) {
+            return self.bad(field, "must be finite");
+        }
+        Ok(())
+    }
+
+    /// `x` lies on a multiple of `dx` (a face of the staggered lattice's cells).
+    fn on_lattice(&self, field: &str, v: &[f64]) -> Check {
+        let dx = self.scene.dx;
+        for x in v {
+            let k = x / dx;
+            if (k - k.round()).abs() > 1e-6 * k.abs().max(1.0) {
+                return self.bad(
+                    field,
+                    format!(
+                        "must lie on multiples of dx = {dx} (the particle lattice), got {x} \
+                         ({x}/dx = {k})"
+                    ),
+                );
+            }
+        }
+        Ok(())
+    }
+
+    fn run(&self) -> Check {
+        let s = self.scene;
+        if !(s.dim == 2 || s.dim == 3) {
+            return self.bad("dim", format!("must be 2 or 3, got {}", s.dim));
+        }
+        if !s.case.supports_dim(s.dim) {
+            return self.bad(
                 "dim",
                 format!(
                     "is {}, but {} is a {}D case",
-                    self.dim,
-                    self.case.name(),
-                    self.case.dim()
+                    s.dim,
+                    s.case.name(),
+                    s.case.dim()
                 ),
             );
         }
-        if !positive(self.dx) {
-            return bad("dx", format!("must be a positive number, got {}", self.dx));
+        if !positive(s.dx) {
+            return self.bad("dx", format!("must be a positive number, got {}", s.dx));
         }
-        if !(self.h_over_dx.is_finite() && (1.0..=3.0).contains(&self.h_over_dx)) {
-            return bad(
+        if !(s.h_over_dx.is_finite() && (1.0..=3.0).contains(&s.h_over_dx)) {
+            return self.bad(
                 "h_over_dx",
-                format!("must be in [1, 3], got {}", self.h_over_dx),
+                format!("must be in [1, 3], got {}", s.h_over_dx),
             );
         }
-        if !positive(self.dt) {
-            return bad("dt", format!("must be a positive number, got {}", self.dt));
+        if !positive(s.dt) {
+            return self.bad("dt", format!("must be a positive number, got {}", s.dt));
         }
-        if !positive(self.t_end) {
-            return bad(
+        if !positive(s.t_end) {
+            return self.bad(
                 "t_end",
-                format!("must be a positive number, got {}", self.t_end),
+                format!("must be a positive number, got {}", s.t_end),
             );
         }
-        if self.t_end / self.dt > 1e7 {
-            return bad(
-                "t_end",
-                format!(
-                    "needs {:.1e} steps of dt = {}",
-                    self.t_end / self.dt,
-                    self.dt
-                ),
-            );
+        if s.schemes.is_empty() {
+            return self.bad("schemes", "must name at least one scheme");
         }
-        if self.schemes.is_empty() {
-            return bad("schemes", "must name at least one scheme".into());
+        let mut seen = s.schemes.clone();
+        seen.sort_by_key(|k| k.name());
+        seen.dedup();
+        if seen.len() != s.schemes.len() {
+            return self.bad("schemes", "names a scheme twice");
         }
-        if let Some(fs) = self.free_surface {
-            let d = self.dim as f64;
+        if s.rho0.is_some_and(|r| !positive(r)) {
+            return self.bad("rho0", "must be a positive number");
+        }
+        if let Some(fs) = s.free_surface {
+            let d = s.dim as f64;
             if !(fs.div_r_threshold.is_finite()
                 && fs.div_r_threshold > 0.0
                 && fs.div_r_threshold < d)
             {
-                return bad(
+                return self.bad(
                     "free_surface.div_r_threshold",
                     format!("must be in (0, {d}), got {}", fs.div_r_threshold),
                 );
             }
         }
-        if self
-            .solver_tolerance
+        if s.solver_tolerance
             .is_some_and(|t| !(t.is_finite() && t > 0.0 && t < 1.0))
         {
-            return bad("solver_tolerance", "must be in (0, 1)".into());
+            return self.bad("solver_tolerance", "must be in (0, 1)");
         }
-        let cavity = self.case == CaseKind::LidDrivenCavity;
-        match (&self.cavity, cavity) {
-            (None, true) => {
-                return bad("cavity", "section is required by lid_driven_cavity".into());
-            }
-            (Some(_), false) => {
-                return bad(
-                    "cavity",
-                    format!(
-                        "section is only valid for lid_driven_cavity, not {}",
-                        self.case.name()
-                    ),
-                );
-            }
+        self.effects()?;
+        self.cavity()?;
+        self.blocks()?;
+        self.output()?;
+        self.limits()?;
+        self.checks()?;
+        self.quick()?;
+        self.budget()
+    }
+
+    fn effects(&self) -> Check {
+        let s = self.scene;
+        if let Some(v) = s.effects.viscosity
+            && !(v.nu.is_finite() && v.nu >= 0.0)
+        {
+            return self.bad("effects.viscosity.nu", format!("must be ≥ 0, got {}", v.nu));
+        }
+        if let Some(g) = s.effects.gravity
+            && g.iter().any(|v| !v.is_finite())
+        {
+            return self.bad("effects.gravity", "must be finite");
+        }
+        if let Some(sh) = s.effects.shifting
+            && !positive(sh.coefficient)
+        {
+            return self.bad("effects.shifting.coefficient", "must be positive");
+        }
+        Ok(())
+    }
+
+    fn cavity(&self) -> Check {
+        let s = self.scene;
+        let cavity = s.case == CaseKind::LidDrivenCavity;
+        match (&s.cavity, cavity) {
+            (None, true) => self.bad("cavity", "section is required by lid_driven_cavity"),
+            (Some(_), false) => self.bad(
+                "cavity",
+                format!(
+                    "section is only valid for lid_driven_cavity, not {}",
+                    s.case.name()
+                ),
+            ),
             (Some(c), true) => {
                 if !positive(c.reynolds) {
-                    return bad(
+                    return self.bad(
                         "cavity.reynolds",
                         format!("must be positive, got {}", c.reynolds),
                     );
                 }
                 if !c.lid_speed.is_finite() || c.lid_speed == 0.0 {
-                    return bad(
+                    return self.bad(
                         "cavity.lid_speed",
                         format!("must be finite and non-zero, got {}", c.lid_speed),
                     );
                 }
                 if c.wall_layers.is_some_and(|l| !(1..=10).contains(&l)) {
-                    return bad("cavity.wall_layers", "must be in 1..=10".into());
+                    return self.bad("cavity.wall_layers", "must be in 1..=10");
                 }
                 if c.probe_spacing.is_some_and(|v| !positive(v) || v > 0.5) {
-                    return bad("cavity.probe_spacing", "must be in (0, 0.5]".into());
+                    return self.bad("cavity.probe_spacing", "must be in (0, 0.5]");
                 }
                 if c.snapshots.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
-                    return bad("cavity.snapshots", "must be non-negative times".into());
+                    return self.bad("cavity.snapshots", "must be non-negative times");
                 }
                 if c.sample_every == Some(0) {
-                    return bad("cavity.sample_every", "must be at least 1".into());
+                    return self.bad("cavity.sample_every", "must be at least 1");
                 }
                 if c.ghia_tolerance
                     .is_some_and(|[a, b]| !(positive(a) && positive(b)))
                 {
-                    return bad(
-                        "cavity.ghia_tolerance",
-                        "must be two positive numbers".into(),
+                    return self.bad("cavity.ghia_tolerance", "must be two positive numbers");
+                }
+                let cells = 1.0 / s.dx;
+                if (cells - cells.round()).abs() > 1e-6 * cells {
+                    return self.bad(
+                        "dx",
+                        format!("must divide the unit cavity, got {} (1/dx = {cells})", s.dx),
                     );
                 }
-                let cells = 1.0 / self.dx;
-                if (cells - cells.round()).abs() > 1e-6 * cells {
-                    return bad(
-                        "dx",
+                if s.free_surface.is_some() {
+                    return self.bad("free_surface", "a closed cavity has no free surface");
+                }
+                if s.effects.viscosity.is_some() {
+                    return self.bad("effects.viscosity", "is set by cavity.reynolds in a cavity");
+                }
+                if s.wall_condition.is_some() {
+                    return self.bad("wall_condition", "a cavity sets it in its [cavity] table");
+                }
+                Ok(())
+            }
+            (None, false) => Ok(()),
+        }
+    }
+
+    fn blocks(&self) -> Check {
+        let s = self.scene;
+        if !s.case.uses_blocks() {
+            for (key, present) in [
+                ("fluid", !s.fluid.is_empty()),
+                ("wall", !s.wall.is_empty()),
+                ("domain", s.domain.is_some()),
+                (
+                    "wall_condition",
+                    s.wall_condition.is_some() && s.case != CaseKind::LidDrivenCavity,
+                ),
+            ] {
+                if present {
+                    return self.bad(
+                        key,
                         format!(
-                            "must divide the unit cavity, got {} (1/dx = {cells})",
-                            self.dx
+                            "is only valid for flow and dam_break scenes; {} builds its own \
+                             geometry",
+                            s.case.name()
                         ),
                     );
                 }
-                if self.free_surface.is_some() {
-                    return bad("free_surface", "a closed cavity has no free surface".into());
+            }
+            return Ok(());
+        }
+        if s.fluid.is_empty() {
+            return self.bad("fluid", "a flow needs at least one [[fluid]] block");
+        }
+        for (i, b) in s.fluid.iter().enumerate() {
+            self.fluid_block(i, b)?;
+        }
+        for (i, w) in s.wall.iter().enumerate() {
+            self.wall_block(i, w)?;
+        }
+        if s.wall_condition.is_some() && s.wall.is_empty() {
+            return self.bad("wall_condition", "is set, but the scene has no [[wall]]");
+        }
+        self.domain()
+    }
+
+    fn fluid_block(&self, i: usize, b: &FluidBlock) -> Check {
+        let s = self.scene;
+        let key = |k: &str| format!("fluid[{i}].{k}");
+        let need = |k: &str, present: bool| -> Check {
+            if present {
+                Ok(())
+            } else {
+                self.bad(
+                    key(k),
+                    format!("is required for shape = {:?}", b.shape).to_lowercase(),
+                )
+            }
+        };
+        let unused = |k: &str, present: bool| -> Check {
+            if present {
+                self.bad(
+                    key(k),
+                    format!("does not apply to shape = {:?}", b.shape).to_lowercase(),
+                )
+            } else {
+                Ok(())
+            }
+        };
+        match b.shape {
+            FluidShape::Box => {
+                need("min", b.min.is_some())?;
+                need("max", b.max.is_some())?;
+                for k in ["center", "semi_axes", "radius", "vertices"] {
+                    let present = match k {
+                        "center" => b.center.is_some(),
+                        "semi_axes" => b.semi_axes.is_some(),
+                        "radius" => b.radius.is_some(),
+                        _ => b.vertices.is_some(),
+                    };
+                    unused(k, present)?;
                 }
-                if self.effects.viscosity.is_some() {
-                    return bad(
-                        "effects.viscosity",
-                        "is set by cavity.reynolds in a cavity".into(),
+                let (lo, hi) = (
+                    b.min.as_ref().expect("checked"),
+                    b.max.as_ref().expect("checked"),
+                );
+                self.vector(&key("min"), lo)?;
+                self.vector(&key("max"), hi)?;
+                if lo.iter().zip(hi).any(|(a, c)| a >= c) {
+                    return self.bad(key("max"), "must exceed min along every axis");
+                }
+                if b.lattice == crate::blocks::LatticeKind::Staggered {
+                    self.on_lattice(&key("min"), lo)?;
+                    self.on_lattice(&key("max"), hi)?;
+                }
+            }
+            FluidShape::Ellipse | FluidShape::Ellipsoid => {
+                need("center", b.center.is_some())?;
+                need("semi_axes", b.semi_axes.is_some())?;
+                unused("min", b.min.is_some())?;
+                unused("max", b.max.is_some())?;
+                unused("radius", b.radius.is_some())?;
+                unused("vertices", b.vertices.is_some())?;
+                self.vector(&key("center"), b.center.as_ref().expect("checked"))?;
+                let a = b.semi_axes.as_ref().expect("checked");
+                self.vector(&key("semi_axes"), a)?;
+                if a.iter().any(|v| !positive(*v)) {
+                    return self.bad(key("semi_axes"), "must be positive");
+                }
+            }
+            FluidShape::Circle | FluidShape::Sphere => {
+                need("center", b.center.is_some())?;
+                need("radius", b.radius.is_some())?;
+                unused("min", b.min.is_some())?;
+                unused("max", b.max.is_some())?;
+                unused("semi_axes", b.semi_axes.is_some())?;
+                unused("vertices", b.vertices.is_some())?;
+                self.vector(&key("center"), b.center.as_ref().expect("checked"))?;
+                if !b.radius.is_some_and(positive) {
+                    return self.bad(key("radius"), "must be a positive number");
+                }
+            }
+            FluidShape::Polygon => {
+                if s.dim != 2 {
+                    return self.bad(key("shape"), "polygon is a 2D shape");
+                }
+                need("vertices", b.vertices.is_some())?;
+                unused("min", b.min.is_some())?;
+                unused("max", b.max.is_some())?;
+                unused("radius", b.radius.is_some())?;
+                unused("semi_axes", b.semi_axes.is_some())?;
+                let v = b.vertices.as_ref().expect("checked");
+                if v.len() < 3 || v.iter().flatten().any(|x| !x.is_finite()) {
+                    return self.bad(key("vertices"), "needs at least 3 finite vertices");
+                }
+                if block_measure(b, 2) <= 0.0 {
+                    return self.bad(key("vertices"), "enclose no area");
+                }
+            }
+        }
+        if let Some(v) = &b.velocity {
+            self.vector(&key("velocity"), v)?;
+        }
+        if let Some(g) = &b.velocity_gradient {
+            if g.len() != s.dim {
+                return self.bad(
+                    key("velocity_gradient"),
+                    format!("must have {} rows", s.dim),
+                );
+            }
+            for row in g {
+                self.vector(&key("velocity_gradient"), row)?;
+            }
+        }
+        if let Some(f) = &b.velocity_field {
+            use crate::blocks::FieldKind;
+            match f.kind {
+                FieldKind::RigidRotation => {
+                    if !f.omega.is_some_and(|w| w.is_finite()) {
+                        return self.bad(
+                            key("velocity_field.omega"),
+                            "is required (finite) for a rigid rotation",
+                        );
+                    }
+                    if let Some(c) = &f.center {
+                        self.vector(&key("velocity_field.center"), c)?;
+                    }
+                    if f.amplitude.is_some() || f.wavelength.is_some() {
+                        return self.bad(
+                            key("velocity_field"),
+                            "amplitude and wavelength belong to taylor_green",
+                        );
+                    }
+                }
+                FieldKind::TaylorGreen => {
+                    if f.amplitude.is_some_and(|a| !a.is_finite()) {
+                        return self.bad(key("velocity_field.amplitude"), "must be finite");
+                    }
+                    if f.wavelength.is_some_and(|l| !positive(l)) {
+                        return self.bad(key("velocity_field.wavelength"), "must be positive");
+                    }
+                    if f.omega.is_some() || f.center.is_some() {
+                        return self.bad(
+                            key("velocity_field"),
+                            "omega and center belong to rigid_rotation",
+                        );
+                    }
+                }
+            }
+        }
+        if b.hydrostatic && s.effects.gravity.is_none() {
+            return self.bad(key("hydrostatic"), "needs [effects] gravity");
+        }
+        if b.jitter
+            .is_some_and(|j| !(j.is_finite() && (0.0..0.5).contains(&j)))
+        {
+            return self.bad(key("jitter"), "must be in [0, 0.5) (a fraction of dx)");
+        }
+        Ok(())
+    }
+
+    fn wall_block(&self, i: usize, w: &WallBlock) -> Check {
+        let s = self.scene;
+        let key = |k: &str| format!("wall[{i}].{k}");
+        self.vector(&key("min"), &w.min)?;
+        self.vector(&key("max"), &w.max)?;
+        if w.min.iter().zip(&w.max).any(|(a, c)| a >= c) {
+            return self.bad(key("max"), "must exceed min along every axis");
+        }
+        self.on_lattice(&key("min"), &w.min)?;
+        self.on_lattice(&key("max"), &w.max)?;
+        let face_ok = |f: &str| face_index(f).is_some_and(|(k, _)| k < s.dim);
+        for f in &w.open {
+            if !face_ok(f) {
+                return self.bad(
+                    key("open"),
+                    format!(
+                        "unknown face {f:?} (faces: -x +x -y +y{})",
+                        if s.dim == 3 { " -z +z" } else { "" }
+                    ),
+                );
+            }
+        }
+        if w.kind == WallKind::Solid && !w.open.is_empty() {
+            return self.bad(key("open"), "a solid wall has no open faces");
+        }
+        if w.kind == WallKind::Container && w.open.len() >= 2 * s.dim {
+            return self.bad(key("open"), "every face is open: the container has no wall");
+        }
+        if w.layers.is_some_and(|l| !(1..=10).contains(&l)) {
+            return self.bad(key("layers"), "must be in 1..=10");
+        }
+        if let Some(v) = &w.velocity {
+            self.vector(&key("velocity"), v)?;
+        }
+        for (f, v) in &w.face_velocity {
+            if !face_ok(f) {
+                return self.bad(key("face_velocity"), format!("unknown face {f:?}"));
+            }
+            if w.kind == WallKind::Solid {
+                return self.bad(key("face_velocity"), "applies to container faces");
+            }
+            if w.open.contains(f) {
+                return self.bad(key("face_velocity"), format!("face {f} is open"));
+            }
+            self.vector(&key(&format!("face_velocity.{f}")), v)?;
+        }
+        Ok(())
+    }
+
+    fn domain(&self) -> Check {
+        let s = self.scene;
+        let Some(d) = &s.domain else { return Ok(()) };
+        if d.periodic.is_empty() {
+            return self.bad(
+                "domain.periodic",
+                "names no axis (a [domain] table declares periodic axes)",
+            );
+        }
+        let mut axes = [false; 3];
+        for a in &d.periodic {
+            match axis_index(a) {
+                Some(k) if k < s.dim => {
+                    if axes[k] {
+                        return self.bad("domain.periodic", format!("names {a:?} twice"));
+                    }
+                    axes[k] = true;
+                }
+                _ => return self.bad("domain.periodic", format!("unknown axis {a:?}")),
+            }
+        }
+        let (Some(lo), Some(hi)) = (&d.min, &d.max) else {
+            return self.bad("domain.min", "min and max of the periodic box are required");
+        };
+        self.vector("domain.min", lo)?;
+        self.vector("domain.max", hi)?;
+        for k in 0..s.dim {
+            if !axes[k] {
+                continue;
+            }
+            let period = hi[k] - lo[k];
+            if !positive(period) {
+                return self.bad("domain.max", "must exceed min along periodic axes");
+            }
+            self.on_lattice("domain.min", &[lo[k]])?;
+            self.on_lattice("domain.max", &[hi[k]])?;
+            if 2.0 * s.support() >= period {
+                return self.bad(
+                    "domain.max",
+                    format!(
+                        "the period {period} along {} must exceed twice the kernel support {}",
+                        ["x", "y", "z"][k],
+                        s.support()
+                    ),
+                );
+            }
+            for (i, w) in s.wall.iter().enumerate() {
+                let closed = |upper: bool| {
+                    let f = format!("{}{}", if upper { "+" } else { "-" }, ["x", "y", "z"][k]);
+                    !w.open.contains(&f)
+                };
+                if w.kind == WallKind::Container && (closed(false) || closed(true)) {
+                    return self.bad(
+                        format!("wall[{i}].open"),
+                        format!(
+                            "a container's faces normal to the periodic axis {} must be open",
+                            ["x", "y", "z"][k]
+                        ),
+                    );
+                }
+                if w.min[k] < lo[k] - 1e-12 || w.max[k] > hi[k] + 1e-12 {
+                    return self.bad(
+                        format!("wall[{i}].max"),
+                        "must lie inside the periodic box along periodic axes",
                     );
                 }
             }
-            (None, false) => {}
         }
-        if let Some(v) = self.effects.viscosity
-            && !(v.nu.is_finite() && v.nu >= 0.0)
-        {
-            return bad("effects.viscosity.nu", format!("must be ≥ 0, got {}", v.nu));
+        Ok(())
+    }
+
+    fn output(&self) -> Check {
+        let o = &self.scene.output;
+        if o.sample_every == Some(0) {
+            return self.bad("output.sample_every", "must be at least 1");
         }
-        if let Some(g) = self.effects.gravity
-            && g.iter().any(|v| !v.is_finite())
-        {
-            return bad("effects.gravity", "must be finite".into());
+        if o.frame_every == Some(0) {
+            return self.bad("output.frame_every", "must be at least 1");
         }
-        if let Some(sh) = self.effects.shifting
-            && !positive(sh.coefficient)
-        {
-            return bad("effects.shifting.coefficient", "must be positive".into());
+        if o.snapshots.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
+            return self.bad("output.snapshots", "must be non-negative times");
         }
-        if let Some(q) = &self.quick {
+        Ok(())
+    }
+
+    fn limits(&self) -> Check {
+        let l = &self.scene.limits;
+        if l.max_particles == Some(0) {
+            return self.bad("limits.max_particles", "must be at least 1");
+        }
+        if l.max_steps == Some(0) {
+            return self.bad("limits.max_steps", "must be at least 1");
+        }
+        if l.max_memory_gb.is_some_and(|m| !positive(m)) {
+            return self.bad("limits.max_memory_gb", "must be positive");
+        }
+        if l.max_displacement.is_some_and(|m| !positive(m)) {
+            return self.bad(
+                "limits.max_displacement",
+                "must be positive (in smoothing lengths)",
+            );
+        }
+        Ok(())
+    }
+
+    fn checks(&self) -> Check {
+        for (i, c) in self.scene.check.iter().enumerate() {
+            if c.quantity.trim().is_empty() {
+                return self.bad(format!("check[{i}].quantity"), "must name a result");
+            }
+            if c.min.is_none() && c.max.is_none() {
+                return self.bad(format!("check[{i}]"), "needs min or max");
+            }
+            if c.min.iter().chain(&c.max).any(|v| !v.is_finite()) {
+                return self.bad(format!("check[{i}]"), "bounds must be finite");
+            }
+            if let (Some(a), Some(b)) = (c.min, c.max)
+                && a > b
+            {
+                return self.bad(format!("check[{i}]"), "min exceeds max");
+            }
+            if let Some(k) = c.schemes.iter().find(|k| !self.scene.schemes.contains(k)) {
+                return self.bad(
+                    format!("check[{i}].schemes"),
+                    format!("{} is not among the scene's schemes", k.name()),
+                );
+            }
+        }
+        Ok(())
+    }
+
+    fn quick(&self) -> Check {
+        if let Some(q) = &self.scene.quick {
             if q.dx.is_some_and(|v| !positive(v)) {
-                return bad("quick.dx", "must be a positive number".into());
+                return self.bad("quick.dx", "must be a positive number");
             }
             if q.dt.is_some_and(|v| !positive(v)) {
-                return bad("quick.dt", "must be a positive number".into());
+                return self.bad("quick.dt", "must be a positive number");
             }
             if q.t_end.is_some_and(|v| !positive(v)) {
-                return bad("quick.t_end", "must be a positive number".into());
+                return self.bad("quick.t_end", "must be a positive number");
             }
+            if q.check_ghia.is_some() && self.scene.cavity.is_none() {
+                return self.bad("quick.check_ghia", "applies to lid_driven_cavity scenes");
+            }
+        }
+        Ok(())
+    }
+
+    /// What the scene would allocate and run, against its limits (before allocating).
+    fn budget(&self) -> Check {
+        let s = self.scene;
+        let e = s.estimate();
+        let l = &s.limits;
+        if e.steps > l.steps() as f64 {
+            return self.bad(
+                "t_end",
+                format!(
+                    "needs {:.3e} steps of dt = {} (limit {}; raise [limits] max_steps)",
+                    e.steps,
+                    s.dt,
+                    l.steps()
+                ),
+            );
+        }
+        if e.particles() + e.probes > l.particles() as f64 {
+            return self.bad(
+                "dx",
+                format!(
+                    "= {} would create about {:.3e} particles{} (limit {}; raise [limits] \
+                     max_particles)",
+                    s.dx,
+                    e.particles(),
+                    if e.probes > 0.0 {
+                        format!(" and {:.3e} probes", e.probes)
+                    } else {
+                        String::new()
+                    },
+                    l.particles()
+                ),
+            );
+        }
+        if e.bytes > l.memory_bytes() {
+            return self.bad(
+                "dx",
+                format!(
+                    "= {} would need about {:.2} GiB ({:.3e} particles × {:.0} neighbours; limit \
+                     {:.2} GiB; raise [limits] max_memory_gb)",
+                    s.dx,
+                    e.bytes / (1u64 << 30) as f64,
+                    e.particles(),
+                    e.neighbors,
+                    l.memory_bytes() / (1u64 << 30) as f64
+                ),
+            );
         }
         Ok(())
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    const GOOD: &str = r#"
-case = "elliptical_drop"
-dim = 2
-dx = 0.025
-dt = 2e-4
-t_end = 0.003
-schemes = ["euler", "dg"]
-[free_surface]
-div_r_threshold = 1.5
-"#;
-
-    #[test]
-    fn parses_with_defaults() {
-        let s = Scene::parse("t", GOOD).unwrap();
-        assert_eq!(s.h_over_dx, 1.3);
-        assert_eq!(s.kernel, KernelKind::QuinticSpline);
-        assert_eq!(s.schemes, vec![SchemeKind::Euler, SchemeKind::Dg]);
-        assert_eq!(s.quick(), s);
-    }
-
-    #[test]
-    fn unknown_key_is_an_error_naming_it() {
-        let e = Scene::parse("t", &format!("{GOOD}\nviscosity = 1.0"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("viscosity"), "{e}");
-        let e = Scene::parse("t", &GOOD.replace("div_r_threshold", "threshold"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("threshold"), "{e}");
-        let e = Scene::parse("t", &GOOD.replace("\"dg\"", "\"dgx\""))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("dgx"), "{e}");
-    }
-
-    #[test]
-    fn bad_values_name_the_key() {
-        for (from, to, key) in [
-            ("dx = 0.025", "dx = -0.025", "`dx`"),
-            ("dt = 2e-4", "dt = 0.0", "`dt`"),
-            ("dim = 2", "dim = 3", "`dim`"),
-            (
-                "div_r_threshold = 1.5",
-                "div_r_threshold = 2.5",
-                "div_r_threshold",
-            ),
-            ("schemes = [\"euler\", \"dg\"]", "schemes = []", "`schemes`"),
-        ] {
-            let e = Scene::parse("scene.toml", &GOOD.replace(from, to))
-                .unwrap_err()
-                .to_string();
-            assert!(e.contains(key) && e.contains("scene.toml"), "{from} -> {e}");
-        }
-        let e = Scene::parse("t", "case = \"elliptical_drop\"\ndim = ")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("line"), "{e}");
-    }
-
-    const CAVITY: &str = r#"
-case = "lid_driven_cavity"
-dim = 2
-dx = 0.05
-dt = 0.01
-t_end = 1.0
-schemes = ["dg"]
-[cavity]
-reynolds = 100
-[effects]
-shifting = { coefficient = 2.0 }
-"#;
-
-    #[test]
-    fn cavity_scene_declares_its_effects() {
-        let s = Scene::parse("c", CAVITY).unwrap();
-        let c = s.sim_config();
-        assert!(c.effects.shifting.is_some() && c.effects.gravity.is_none());
-        // Viscosity comes from the Reynolds number (added by the case), not from the scene.
-        assert!(c.effects.viscosity.is_none());
-        assert!(Scene::parse("d", GOOD).unwrap().sim_config().effects == Default::default());
-        assert!(Scene::parse("c", &CAVITY.replace("dim = 2", "dim = 3")).is_ok());
-    }
-
-    #[test]
-    fn bad_cavity_values_name_the_key() {
-        for (from, to, key) in [
-            ("reynolds = 100", "reynolds = -1", "cavity.reynolds"),
-            ("dx = 0.05", "dx = 0.03", "`dx`"),
-            (
-                "coefficient = 2.0",
-                "coefficient = 0.0",
-                "effects.shifting.coefficient",
-            ),
-            (
-                "[cavity]",
-                "[free_surface]\ndiv_r_threshold = 1.5\n[cavity]",
-                "free_surface",
-            ),
-            (
-                "[effects]",
-                "[effects]\nviscosity = { nu = 0.01 }",
-                "effects.viscosity",
-            ),
-            ("dim = 2", "dim = 4", "`dim`"),
-        ] {
-            let e = Scene::parse("cav.toml", &CAVITY.replace(from, to))
-                .unwrap_err()
-                .to_string();
-            assert!(e.contains(key), "{from} -> {e}");
-        }
-        let e = Scene::parse("c", &CAVITY.replace("[cavity]\nreynolds = 100\n", ""))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("cavity"), "{e}");
-        let e = Scene::parse("c", &format!("{CAVITY}\nlid = 2"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("lid"), "{e}");
-        let e = Scene::parse("d", &format!("{GOOD}\n[cavity]\nreynolds = 1"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("only valid"), "{e}");
-    }
-}
+mod tests;

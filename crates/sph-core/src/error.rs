@@ -13,6 +13,9 @@ pub enum CoreError {
         /// Length found.
         found: usize,
     },
+    /// The periodic description of the domain is invalid.
+    #[error("periodic domain: {0}")]
+    Periodic(#[from] crate::PeriodicError),
     /// A particle field holds a non-finite value.
     #[error("field `{field}` of particle {index} is not finite")]
     NonFinite {

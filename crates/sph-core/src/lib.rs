@@ -9,6 +9,7 @@
 //! * [`VectorOps`] and [`MatrixOps`] are the small common interface glam lacks (component access,
 //!   outer products, cofactor matrices, invariants).
 //! * [`ParticleSet`] is the structure-of-arrays storage (`positions`, `velocities`, ...).
+//! * [`Periodic`] describes periodic axes of a box: minimum-image pair vectors and wrapping.
 //! * [`testing`] holds a seeded RNG and lattice generators shared by the tests and benches of the
 //!   crates above; it has no dependencies and does no I/O.
 //!
@@ -17,11 +18,13 @@
 mod dim;
 mod error;
 mod particles;
+mod periodic;
 pub mod testing;
 
 pub use dim::{D2, D3, Dim, MatrixOps, VectorOps};
 pub use error::CoreError;
 pub use particles::ParticleSet;
+pub use periodic::{Periodic, PeriodicError};
 
 /// Runs a dimension-generic test body for both [`D2`] and [`D3`].
 ///

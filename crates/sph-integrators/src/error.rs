@@ -47,6 +47,41 @@ pub enum StepError {
         /// First offending particle.
         particle: usize,
     },
+    /// A particle moved further in one step than the limit allows
+    /// ([`Limits::max_displacement`](crate::Limits)): the flow has blown up (or the step is far
+    /// too large for it). The particles are left as they were before the step.
+    #[error(
+        "step {step} (t = {t:.6e}): blow-up: particle {particle} would move {value:.3e} smoothing          lengths in one step (limit {limit}); the time step is too large for this flow, or the flow          is unstable"
+    )]
+    BlowUp {
+        /// Step number.
+        step: usize,
+        /// Time at the start of the step.
+        t: f64,
+        /// The particle that moved furthest.
+        particle: usize,
+        /// Its displacement in smoothing lengths.
+        value: f64,
+        /// The limit in smoothing lengths.
+        limit: f64,
+    },
+    /// A fluid particle would end deeper in wall material than the walls are thick: it has passed
+    /// through a wall. The particles are left as they were before the step.
+    #[error(
+        "step {step} (t = {t:.6e}): fluid particle {particle} would end {depth:.3e} deep in a wall,          past its {thickness:.3e} thick wall layers (it has passed through the wall)"
+    )]
+    Escaped {
+        /// Step number.
+        step: usize,
+        /// Time at the start of the step.
+        t: f64,
+        /// The deepest particle.
+        particle: usize,
+        /// How deep it would lie.
+        depth: f64,
+        /// The walls' thickness.
+        thickness: f64,
+    },
     /// The time step is not a positive finite number.
     #[error("step {step}: invalid time step {dt}")]
     InvalidTimeStep {

@@ -56,7 +56,7 @@ impl<D: Dim> Frame for Simulation<D> {
         self.engine.dirichlet.get(i).copied().unwrap_or(false)
     }
     fn det_f(&self, i: usize) -> f64 {
-        if self.step == 0 || !self.engine.config.diagnostics {
+        if self.step == 0 || !self.engine.config.diagnostics.det_f {
             return 1.0;
         }
         self.buf.det_f.get(i).map_or(1.0, |f| f.determinant())

@@ -27,14 +27,18 @@ mod simulation;
 #[cfg(test)]
 mod tests;
 mod time_step;
+mod wall_geometry;
 mod walls;
 
 pub use checkpoint::{Checkpoint, RestoreError};
-pub use config::{Effects, FreeSurface, Shifting, SimConfig, Viscosity};
+pub use config::{
+    Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, Shifting, SimConfig, Viscosity,
+};
 pub use error::StepError;
 pub use frame::Frame;
-pub use report::{DetFStats, StepReport};
+pub use report::{DetFStats, Phase, PhaseTimes, StepReport};
 pub use schemes::{DgIsph, EulerIsph, Integrator, PredictorCorrectorIsph, Scheme, SchemeKind};
 pub use simulation::Simulation;
 pub use time_step::TimeStep;
+pub use wall_geometry::{WallBox, WallBoxKind, WallGeometry};
 pub use walls::{WallCondition, WallError, WallModel, Walls};

@@ -4,6 +4,7 @@
 //! from `∇·r` → source (`∇·u*`, or `A = I + Δt∇u*` and `det A − 1`) → assemble → solve
 //! (warm-started from the previous pressure) → `uⁿ⁺¹ = u* − Δt ∇p/ρ` → `max |∇·uⁿ⁺¹|`.
 
+use crate::report::{Phase, PhaseTimes};
 use crate::simulation::Engine;
 use crate::{StepError, report::DetFStats};
 use sph_core::{Dim, MatrixOps, VectorOps};
@@ -16,6 +17,7 @@ use sph_operators::{
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_wall_rows,
 };
+use std::time::Instant;
 
 /// Which pressure equation to solve.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,7 +31,7 @@ pub(crate) enum Equation {
 /// What a projection reports.
 pub(crate) struct Projected {
     pub(crate) solve: SolveInfo,
-    pub(crate) max_div_u: f64,
+    pub(crate) max_div_u: Option<f64>,
     pub(crate) free_surface: usize,
     pub(crate) hessian_fallbacks: usize,
     pub(crate) gauge_multiplier: f64,
@@ -47,27 +49,36 @@ pub(crate) fn prepare<D: Dim>(
     densities: &[f64],
     step: usize,
     t: f64,
+    phases: &mut PhaseTimes,
 ) -> Result<usize, StepError> {
+    let clock = Instant::now();
     e.search
         .build(x, e.kernel.support_radius())
         .map_err(|source| StepError::Neighbors { step, t, source })?;
     e.search.query(x, &mut e.neighbors);
+    phases.add(Phase::Neighbors, clock);
+    let clock = Instant::now();
     for ((v, m), rho) in e.volumes.iter_mut().zip(masses).zip(densities) {
         *v = m / rho;
     }
-    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel);
+    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
     let fallbacks = if e.config.renormalise {
         correction_matrices(&ctx, MIN_CORRECTION_DET, &mut e.corrections).fallbacks
     } else {
         0
     };
-    // The ∇·r pass runs only when the scene declares a free surface.
+    phases.add(Phase::Renormalisation, clock);
+    // The ∇·r pass runs only when the scene declares a free surface. Wall particles never get
+    // Dirichlet rows: their pressures are extrapolated (the outer wall layers have a low ∇·r).
     match e.config.free_surface {
         Some(fs) => {
+            let clock = Instant::now();
             free_surface_indicator(&ctx, &mut e.div_r);
             for (d, r) in e.dirichlet.iter_mut().zip(&e.div_r) {
                 *d = *r < fs.div_r_threshold;
             }
+            e.dirichlet[e.fluid..].fill(false);
+            phases.add(Phase::FreeSurface, clock);
         }
         None => e.dirichlet.fill(false),
     }
@@ -87,8 +98,9 @@ pub(crate) fn project<D: Dim>(
     u_new: &mut [D::Vector],
     step: usize,
     t: f64,
+    phases: &mut PhaseTimes,
 ) -> Result<Projected, StepError> {
-    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel);
+    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     let mut hessian_fallbacks = 0;
     let nf = e.fluid;
@@ -98,6 +110,7 @@ pub(crate) fn project<D: Dim>(
     // `WallCondition`.
     let u_star: &[D::Vector] = match &e.walls {
         Some(w) => {
+            let clock = Instant::now();
             e.u_div.copy_from_slice(u_star);
             w.boundary_data(
                 &ctx,
@@ -107,13 +120,17 @@ pub(crate) fn project<D: Dim>(
                 &mut e.u_div[nf..],
                 Some(&mut e.wall_grad),
             );
+            phases.add(Phase::WallData, clock);
             &e.u_div
         }
         None => u_star,
     };
+    let clock = Instant::now();
     match equation {
         Equation::Ppe => {
             divergence(&ctx, u_star, l, &mut e.source);
+            phases.add(Phase::Source, clock);
+            let clock = Instant::now();
             // Masses from volumes and densities: m_j = ρ_j V_j.
             for ((s, v), rho) in e.scalar.iter_mut().zip(&e.volumes).zip(densities) {
                 *s = v * rho;
@@ -129,6 +146,7 @@ pub(crate) fn project<D: Dim>(
                 &mut e.rhs,
             )
             .map_err(|source| StepError::Assembly { step, t, source })?;
+            phases.add(Phase::Assembly, clock);
         }
         Equation::Dg => {
             // A = I + Δt ∇u*,  det A − 1 = Δt I1 + Δt² I2 + Δt³ I3 (no cancellation).
@@ -138,6 +156,8 @@ pub(crate) fn project<D: Dim>(
                 *s = dt * (inv.i1 + dt * (inv.i2 + dt * inv.i3));
                 *a = D::Matrix::IDENTITY + *a * dt;
             }
+            phases.add(Phase::Source, clock);
+            let clock = Instant::now();
             hessian_fallbacks = assemble_dg(
                 &ctx,
                 densities,
@@ -150,11 +170,14 @@ pub(crate) fn project<D: Dim>(
                 &mut e.rhs,
             )
             .map_err(|source| StepError::Assembly { step, t, source })?;
+            phases.add(Phase::Assembly, clock);
         }
     }
     if nf < ctx.len() {
+        let clock = Instant::now();
         assemble_wall_rows(&ctx, nf, densities, &e.wall_grad, &mut e.matrix, &mut e.rhs)
             .map_err(|source| StepError::Assembly { step, t, source })?;
+        phases.add(Phase::Assembly, clock);
     }
     for (p, d) in pressures.iter_mut().zip(&e.dirichlet) {
         if *d {
@@ -168,6 +191,7 @@ pub(crate) fn project<D: Dim>(
         rhs: &e.rhs,
     };
     // No Dirichlet row: a closed domain, pressure defined up to a constant → mean-zero gauge.
+    let clock = Instant::now();
     let solve = if e.dirichlet.iter().any(|d| *d) {
         e.gauge.last_multiplier = 0.0;
         e.solver.solve(&system, pressures, &e.config.solve)
@@ -176,25 +200,37 @@ pub(crate) fn project<D: Dim>(
             .solve(&mut e.solver, &system, nf, pressures, &e.config.solve)
     }
     .map_err(|source| StepError::Solve { step, t, source })?;
+    let total = clock.elapsed().as_secs_f64();
+    phases.add_seconds(Phase::PrecondSetup, solve.setup_seconds);
+    phases.add_seconds(Phase::Solve, total - solve.setup_seconds);
+    let clock = Instant::now();
     gradient(&ctx, pressures, e.config.gradient, l, &mut e.grad_p);
     for (((un, us), g), rho) in u_new.iter_mut().zip(u_star).zip(&e.grad_p).zip(densities) {
         *un = *us - *g * (dt / rho);
     }
-    if let Some(w) = &e.walls {
-        w.boundary_data(&ctx, &u_new[..nf], gravity, dt, &mut e.u_div[nf..], None);
-        u_new[nf..].copy_from_slice(&e.u_div[nf..]);
-    }
-    divergence(&ctx, u_new, l, &mut e.scalar);
+    phases.add(Phase::Correction, clock);
+    let max_div_u = if e.config.diagnostics.div_u {
+        let clock = Instant::now();
+        if let Some(w) = &e.walls {
+            w.boundary_data(&ctx, &u_new[..nf], gravity, dt, &mut e.u_div[nf..], None);
+            u_new[nf..].copy_from_slice(&e.u_div[nf..]);
+        }
+        divergence(&ctx, u_new, l, &mut e.scalar);
+        let max = e.scalar[..nf]
+            .iter()
+            .zip(&e.dirichlet)
+            .filter(|(_, d)| !**d)
+            .map(|(v, _)| v.abs())
+            .fold(0.0, f64::max);
+        phases.add(Phase::Diagnostics, clock);
+        Some(max)
+    } else {
+        None
+    };
     // Wall particles keep their prescribed velocity.
     if let Some(w) = &e.walls {
         u_new[nf..].copy_from_slice(&w.velocity);
     }
-    let max_div_u = e.scalar[..nf]
-        .iter()
-        .zip(&e.dirichlet)
-        .filter(|(_, d)| !**d)
-        .map(|(v, _)| v.abs())
-        .fold(0.0, f64::max);
     Ok(Projected {
         solve,
         max_div_u,
@@ -212,7 +248,7 @@ pub(crate) fn det_f_stats<D: Dim>(
     disp: &[D::Vector],
     f: &mut [D::Matrix],
 ) -> DetFStats {
-    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel);
+    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     deformation_gradient(&ctx, disp, l, f);
     let (mut min, mut max, mut sum, mut count) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);

@@ -1,6 +1,7 @@
 //! The three time-update schemes.
 
 use crate::projection::{Equation, det_f_stats, first_non_finite, prepare, project};
+use crate::report::{Phase, PhaseTimes};
 use crate::simulation::{Buffers, Engine};
 use crate::{Shifting, Simulation, StepError, StepReport, Walls};
 use serde::{Deserialize, Serialize};
@@ -112,6 +113,7 @@ fn intermediate_velocity<D: Dim>(
     p: &ParticleSet<D>,
     walls: Option<&Walls<D>>,
     dt: f64,
+    phases: &mut PhaseTimes,
 ) {
     b.u_star.copy_from_slice(&p.velocities);
     let fx = e.config.effects;
@@ -121,18 +123,23 @@ fn intermediate_velocity<D: Dim>(
     let nf = e.fluid;
     b.acc.fill(D::Vector::ZERO);
     if let Some(v) = fx.viscosity {
-        let ctx = SphContext::new(&p.positions, &e.volumes, &e.neighbors, &e.kernel);
+        let clock = Instant::now();
+        let ctx = SphContext::new(&p.positions, &e.volumes, &e.neighbors, &e.kernel)
+            .with_periodic(e.periodic);
         b.u_visc.copy_from_slice(&p.velocities);
         if let Some(w) = walls {
             w.no_slip_velocity(&ctx, &p.velocities, &mut b.u_visc[nf..]);
         }
         viscous_acceleration(&ctx, &p.masses, &p.densities, v.nu, &b.u_visc, &mut b.acc);
+        phases.add(Phase::Viscosity, clock);
     }
     if let Some(g) = fx.gravity {
+        let clock = Instant::now();
         let g = D::Vector::from_fn(|k| g[k]);
         for a in &mut b.acc[..nf] {
             *a += g;
         }
+        phases.add(Phase::Gravity, clock);
     }
     for (u, a) in b.u_star[..nf].iter_mut().zip(&b.acc[..nf]) {
         *u += *a * dt;
@@ -154,7 +161,7 @@ struct ShiftBuffers<'a, D: Dim> {
 }
 
 fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shifting, dt: f64) {
-    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel);
+    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     concentration_gradient(&ctx, sh.spacing, b.grad_c);
     velocity_gradient(&ctx, b.u_new, l, b.grad_u);
@@ -185,8 +192,8 @@ enum PositionRule {
 }
 
 /// One projection step: `u*` → (predictor) → neighbours, flags, corrections → pressure solve →
-/// `uⁿ⁺¹` → displacement → (diagnostics) → commit. Nothing is written to the particles before
-/// every fallible part has succeeded.
+/// `uⁿ⁺¹` → displacement → (shifting) → blow-up checks → (diagnostics) → commit. Nothing is
+/// written to the particles before every fallible part has succeeded.
 fn projection_step<D: Dim>(
     sim: &mut Simulation<D>,
     dt: f64,
@@ -194,21 +201,30 @@ fn projection_step<D: Dim>(
     rule: PositionRule,
 ) -> Result<StepReport, StepError> {
     let t0 = Instant::now();
+    let mut phases = PhaseTimes::default();
     let (step, t) = (sim.step, sim.t);
     if !(dt.is_finite() && dt > 0.0) {
         return Err(StepError::InvalidTimeStep { step, dt });
     }
     sim.ensure_buffers();
     let viscous = sim.engine.config.effects.viscosity.is_some();
+    let det_f_wanted = sim.engine.config.diagnostics.det_f;
     let p = &sim.particles;
     // The explicit forces read the lists at xⁿ (Algorithms 1–2: ν∇²uⁿ).
     let mut correction_fallbacks = 0;
     sim.engine.saved.valid = false;
     if viscous {
-        correction_fallbacks = prepare_current(&mut sim.engine, p, step, t)?;
+        correction_fallbacks = prepare_current(&mut sim.engine, p, step, t, &mut phases)?;
     }
-    intermediate_velocity(&sim.engine, &mut sim.buf, p, sim.engine.walls.as_ref(), dt);
-    if viscous && rule == PositionRule::Predicted && sim.engine.config.diagnostics {
+    intermediate_velocity(
+        &sim.engine,
+        &mut sim.buf,
+        p,
+        sim.engine.walls.as_ref(),
+        dt,
+        &mut phases,
+    );
+    if viscous && rule == PositionRule::Predicted && det_f_wanted {
         // Keep the xⁿ lists for the det F diagnostics below.
         sim.engine.swap_saved();
         sim.engine.saved.valid = true;
@@ -217,6 +233,7 @@ fn projection_step<D: Dim>(
     let x_eval = match rule {
         PositionRule::Current => &p.positions,
         PositionRule::Predicted => {
+            let periodic = sim.engine.periodic;
             for ((xp, x), u) in sim
                 .buf
                 .x_pred
@@ -225,7 +242,8 @@ fn projection_step<D: Dim>(
                 .zip(&p.velocities)
                 .take(nf)
             {
-                *xp = *x + *u * dt;
+                let y = *x + *u * dt;
+                *xp = periodic.map_or(y, |per| per.wrap(y));
             }
             // Walls do not move (a lid's velocity is tangential and prescribed).
             sim.buf.x_pred[nf..].copy_from_slice(&p.positions[nf..]);
@@ -233,7 +251,15 @@ fn projection_step<D: Dim>(
         }
     };
     if !(viscous && rule == PositionRule::Current) {
-        correction_fallbacks = prepare(&mut sim.engine, x_eval, &p.masses, &p.densities, step, t)?;
+        correction_fallbacks = prepare(
+            &mut sim.engine,
+            x_eval,
+            &p.masses,
+            &p.densities,
+            step,
+            t,
+            &mut phases,
+        )?;
     }
     // Work on a copy of the pressure so a failed solve leaves the particles untouched.
     sim.buf.p_work.copy_from_slice(&p.pressures);
@@ -248,12 +274,21 @@ fn projection_step<D: Dim>(
         &mut sim.buf.u_new,
         step,
         t,
+        &mut phases,
     )?;
     if let Some(particle) = first_non_finite(&sim.buf.u_new) {
         return Err(StepError::NonFinite {
             step,
             t,
             field: "velocity",
+            particle,
+        });
+    }
+    if let Some(particle) = sim.buf.p_work.iter().position(|v| !v.is_finite()) {
+        return Err(StepError::NonFinite {
+            step,
+            t,
+            field: "pressure",
             particle,
         });
     }
@@ -272,6 +307,7 @@ fn projection_step<D: Dim>(
     }
     sim.buf.disp[nf..].fill(D::Vector::ZERO);
     if let Some(sh) = sim.engine.config.effects.shifting {
+        let clock = Instant::now();
         let bufs = ShiftBuffers {
             grad_c: &mut sim.buf.grad_c,
             grad_u: &mut sim.buf.grad_u,
@@ -279,8 +315,11 @@ fn projection_step<D: Dim>(
             disp: &mut sim.buf.disp,
         };
         shift(&sim.engine, bufs, x_eval, sh, dt);
+        phases.add(Phase::Shifting, clock);
     }
-    let det_f = if sim.engine.config.diagnostics {
+    let max_displacement = check_displacements(&sim.engine, p, &sim.buf.disp, step, t)?;
+    let det_f = if det_f_wanted {
+        let clock = Instant::now();
         if rule == PositionRule::Predicted {
             // The step's deformation is measured from xⁿ: take back the lists set aside there,
             // or rebuild them (keeping the free-surface flags of the projection either way).
@@ -289,16 +328,15 @@ fn projection_step<D: Dim>(
                 sim.engine.saved.valid = false;
             } else {
                 sim.buf.flags.copy_from_slice(&sim.engine.dirichlet);
-                prepare_current(&mut sim.engine, p, step, t)?;
+                // The rebuild's passes count as diagnostics, not as the step's own.
+                let mut rebuild = PhaseTimes::default();
+                prepare_current(&mut sim.engine, p, step, t, &mut rebuild)?;
                 sim.engine.dirichlet.copy_from_slice(&sim.buf.flags);
             }
         }
-        Some(det_f_stats(
-            &sim.engine,
-            &p.positions,
-            &sim.buf.disp,
-            &mut sim.buf.det_f,
-        ))
+        let stats = det_f_stats(&sim.engine, &p.positions, &sim.buf.disp, &mut sim.buf.det_f);
+        phases.add(Phase::Diagnostics, clock);
+        Some(stats)
     } else {
         None
     };
@@ -315,11 +353,66 @@ fn projection_step<D: Dim>(
         hessian_fallbacks: projected.hessian_fallbacks,
         gauge_multiplier: projected.gauge_multiplier,
         wall_penetrations: sim.wall_penetrations(),
+        max_displacement,
+        phases,
         seconds: t0.elapsed().as_secs_f64(),
     };
     sim.t += dt;
     sim.step += 1;
     Ok(report)
+}
+
+/// The blow-up checks of a step, before anything is committed: no fluid particle may move more
+/// than [`Limits::max_displacement`](crate::Limits) smoothing lengths, nor end deeper in wall
+/// material than the walls are thick. Returns the largest displacement in smoothing lengths.
+fn check_displacements<D: Dim>(
+    e: &Engine<D>,
+    p: &ParticleSet<D>,
+    disp: &[D::Vector],
+    step: usize,
+    t: f64,
+) -> Result<f64, StepError> {
+    let nf = e.fluid;
+    let h = e.config.h;
+    let (far, max2) = disp[..nf]
+        .iter()
+        .enumerate()
+        .fold((0, 0.0_f64), |(k, m), (i, d)| {
+            let l = d.length_squared();
+            if l > m { (i, l) } else { (k, m) }
+        });
+    let value = max2.sqrt() / h;
+    let limit = e.config.limits.max_displacement;
+    if value.is_nan() || value > limit {
+        return Err(StepError::BlowUp {
+            step,
+            t,
+            particle: far,
+            value,
+            limit,
+        });
+    }
+    if let Some(w) = &e.walls {
+        let mut deepest = (0, 0.0_f64);
+        for (i, (x, d)) in p.positions[..nf].iter().zip(&disp[..nf]).enumerate() {
+            let y = *x + *d;
+            let y = e.periodic.map_or(y, |per| per.wrap(y));
+            let depth = w.depth(y);
+            if depth > deepest.1 {
+                deepest = (i, depth);
+            }
+        }
+        if deepest.1 > w.thickness {
+            return Err(StepError::Escaped {
+                step,
+                t,
+                particle: deepest.0,
+                depth: deepest.1,
+                thickness: w.thickness,
+            });
+        }
+    }
+    Ok(value)
 }
 
 /// [`prepare`] at the particles' current positions `xⁿ`.
@@ -328,13 +421,16 @@ fn prepare_current<D: Dim>(
     p: &ParticleSet<D>,
     step: usize,
     t: f64,
+    phases: &mut PhaseTimes,
 ) -> Result<usize, StepError> {
-    prepare(e, &p.positions, &p.masses, &p.densities, step, t)
+    prepare(e, &p.positions, &p.masses, &p.densities, step, t, phases)
 }
 
-/// Writes the step's results to the particles: `x += disp`, `u = u_new`, `p = p_work`.
+/// Writes the step's results to the particles: `x += disp` (wrapped into the periodic box),
+/// `u = u_new`, `p = p_work`.
 fn commit<D: Dim>(sim: &mut Simulation<D>) {
     let p = &mut sim.particles;
+    let periodic = sim.engine.periodic;
     p.pressures.copy_from_slice(&sim.buf.p_work);
     for ((x, u), (d, un)) in p
         .positions
@@ -343,6 +439,9 @@ fn commit<D: Dim>(sim: &mut Simulation<D>) {
         .zip(sim.buf.disp.iter().zip(&sim.buf.u_new))
     {
         *x += *d;
+        if let Some(per) = &periodic {
+            *x = per.wrap(*x);
+        }
         *u = *un;
     }
 }

@@ -1,8 +1,8 @@
 use crate::config::SimConfig;
 use crate::walls::{WallError, Walls};
-use sph_core::{CoreError, Dim, MatrixOps, ParticleSet, VectorOps};
+use sph_core::{CoreError, Dim, MatrixOps, ParticleSet, Periodic, VectorOps};
 use sph_kernels::{AnyKernel, Kernel};
-use sph_neighbors::{AnySearch, NeighborList};
+use sph_neighbors::{AnySearch, NeighborList, NeighborSearch};
 use sph_pressure::{AnySolver, CsrMatrix, MeanZeroGauge};
 
 /// A running simulation: the particles plus everything the schemes share (kernel, neighbour
@@ -25,6 +25,8 @@ pub(crate) struct Engine<D: Dim> {
     /// Number of fluid particles (the first ones); the rest are wall particles.
     pub(crate) fluid: usize,
     pub(crate) walls: Option<Walls<D>>,
+    /// Periodic axes of the domain, if any.
+    pub(crate) periodic: Option<Periodic<D>>,
     /// Velocities the divergence reads (fluid: u; walls: free-slip mirror).
     pub(crate) u_div: Vec<D::Vector>,
     /// Neumann data `∇p/ρ` of each wall particle's pressure row.
@@ -102,13 +104,30 @@ const _: fn() = || {
 
 impl<D: Dim> Simulation<D> {
     /// A simulation of `particles` with `config`; fails if the particle arrays are inconsistent
-    /// or hold non-finite values.
-    pub fn new(particles: ParticleSet<D>, config: SimConfig) -> Result<Self, CoreError> {
+    /// or hold non-finite values, or if the periodic axes are invalid (an empty box, or a period
+    /// not above twice the kernel support). On periodic axes the positions are wrapped into the
+    /// periodic box.
+    pub fn new(mut particles: ParticleSet<D>, config: SimConfig) -> Result<Self, CoreError> {
         particles.validate()?;
         let kernel = config.kernel.build::<D>(config.h);
+        let periodic = match config.periodic {
+            Some(a) => {
+                let v = |c: [f64; 3]| D::Vector::from_fn(|k| c[k]);
+                let p = Periodic::<D>::new(v(a.lo), v(a.hi), a.axes)?;
+                p.check_radius(kernel.support_radius())?;
+                for x in particles.positions.iter_mut() {
+                    *x = p.wrap(*x);
+                }
+                Some(p)
+            }
+            None => None,
+        };
+        let mut search = AnySearch::new(config.search);
+        search.set_periodic(periodic);
         let engine = Engine {
             kernel,
-            search: AnySearch::new(config.search),
+            periodic,
+            search,
             neighbors: NeighborList::new(),
             solver: AnySolver::new(config.solver),
             volumes: Vec::new(),
@@ -236,6 +255,11 @@ impl<D: Dim> Simulation<D> {
     /// Kernel support radius.
     pub fn support_radius(&self) -> f64 {
         self.engine.kernel.support_radius()
+    }
+
+    /// Periodic axes of the domain, if any.
+    pub fn periodic(&self) -> Option<&Periodic<D>> {
+        self.engine.periodic.as_ref()
     }
 
     /// Largest particle speed.

@@ -33,6 +33,7 @@ fn drop<D: Dim>() -> (ParticleSet<D>, SimConfig) {
     }
     let mut cfg = SimConfig::new(KernelKind::QuinticSpline, 1.3 * dx);
     cfg.free_surface = Some(FreeSurface::default_for(D::DIM));
+    cfg.diagnostics = Diagnostics::ALL;
     (p, cfg)
 }
 
@@ -95,6 +96,51 @@ sph_core::dim_tests! {
         assert_eq!(sim.particles.positions, positions);
     }
 
+    /// A step far too large for the flow ends in a typed blow-up error naming the particle and
+    /// its displacement, and leaves the particles as they were.
+    fn blow_up_is_an_error_naming_particle_and_displacement<D>() {
+        for kind in SchemeKind::ALL {
+            let (p, cfg) = drop::<D>();
+            let h = cfg.h;
+            let mut sim = Simulation::new(p, cfg).unwrap();
+            let before = sim.particles.clone();
+            // The rim moves at |u| = 30: in dt = 0.01 that is 0.3 / h = 4.6 smoothing lengths.
+            let err = Scheme::new(kind).step(&mut sim, 0.01).unwrap_err();
+            match err {
+                StepError::BlowUp { step: 0, particle, value, limit, .. } => {
+                    assert!(value > 3.0 && limit == 1.0, "{kind:?}: {value}");
+                    assert!(particle < before.len());
+                }
+                e => panic!("{kind:?}: unexpected {e:?}"),
+            }
+            assert_eq!(sim.particles.positions, before.positions);
+            assert_eq!(sim.step, 0);
+            // A reasonable step passes and reports its largest displacement.
+            let r = Scheme::new(kind).step(&mut sim, 1e-4).unwrap();
+            let rim = 30.0 * 1e-4 / h;
+            assert!(r.max_displacement > 0.5 * rim && r.max_displacement < 2.0 * rim, "{}", r.max_displacement);
+        }
+    }
+
+    /// The passes a step runs are recorded: an inviscid drop without walls or shifting runs no
+    /// viscosity, gravity, wall-data or shifting pass; it detects its free surface; diagnostics
+    /// run only when configured.
+    fn step_records_the_passes_it_ran<D>() {
+        let (p, mut cfg) = drop::<D>();
+        cfg.diagnostics = Diagnostics::default();
+        let mut sim = Simulation::new(p, cfg).unwrap();
+        let r = Scheme::new(SchemeKind::Dg).step(&mut sim, 1e-4).unwrap();
+        for ph in [Phase::Viscosity, Phase::Gravity, Phase::WallData, Phase::Shifting, Phase::Diagnostics] {
+            assert!(!r.phases.ran(ph), "{ph:?} ran");
+        }
+        for ph in [Phase::Neighbors, Phase::Renormalisation, Phase::FreeSurface, Phase::Source, Phase::Assembly, Phase::Solve, Phase::Correction] {
+            assert_eq!(r.phases.runs(ph), 1, "{ph:?}");
+        }
+        assert!(r.det_f.is_none() && r.max_div_u.is_none());
+        let total: f64 = Phase::ALL.iter().map(|p| r.phases.seconds(*p)).sum();
+        assert!(total <= r.seconds && total > 0.0);
+    }
+
     fn invalid_time_step_is_an_error<D>() {
         let (p, cfg) = drop::<D>();
         let mut sim = Simulation::new(p, cfg).unwrap();
@@ -120,7 +166,8 @@ sph_core::dim_tests! {
             let div_r = sim.engine.div_r.clone();
             let flags = sim.engine.dirichlet.clone();
             let (m, rho) = (sim.particles.masses.clone(), sim.particles.densities.clone());
-            crate::projection::prepare(&mut sim.engine, &x_n, &m, &rho, step, t).unwrap();
+            let mut phases = PhaseTimes::default();
+            crate::projection::prepare(&mut sim.engine, &x_n, &m, &rho, step, t, &mut phases).unwrap();
             assert_eq!(sim.engine.div_r, div_r);
             sim.engine.dirichlet.copy_from_slice(&flags);
             let mut f = sim.buf.det_f.clone();
@@ -181,8 +228,8 @@ sph_core::dim_tests! {
             first,
             velocity: vec![lid; nw],
             mirror: vec![D::Vector::from_fn(|c| if c == 1 { -1.0 } else { 1.0 }); nw],
-            lo: D::Vector::ZERO,
-            hi: D::Vector::from_fn(|_| 1.0),
+            geometry: crate::WallGeometry::closed_box(D::Vector::ZERO, D::Vector::from_fn(|_| 1.0)),
+            thickness: 0.5,
         };
         let u = vec![u0; fluid.len()];
         let (g, dt) = (D::Vector::from_fn(|c| -(c as f64) - 1.0), 0.1);
@@ -233,8 +280,8 @@ sph_core::dim_tests! {
             first: 3,
             velocity: vec![D::Vector::ZERO],
             mirror: vec![D::Vector::from_fn(|_| -1.0)],
-            lo: D::Vector::ZERO,
-            hi: D::Vector::from_fn(|_| 1.0),
+            geometry: crate::WallGeometry::closed_box(D::Vector::ZERO, D::Vector::from_fn(|_| 1.0)),
+            thickness: 0.5,
         };
         let x = [inside, a, b, wall];
         assert_eq!(walls.penetrations(&x), 2);

@@ -1,5 +1,6 @@
 //! Solid walls.
 
+use crate::WallGeometry;
 use rayon::prelude::*;
 use sph_core::{Dim, VectorOps};
 use sph_kernels::Kernel;
@@ -66,8 +67,8 @@ pub enum WallCondition {
     Reflection,
 }
 
-/// Walls of a simulation: particles `first..n` of the particle set, their prescribed velocities,
-/// and the box the fluid must stay in (penetration check).
+/// Walls of a simulation: particles `first..n` of the particle set, their prescribed velocities
+/// and mirrors, and the geometry the fluid must stay in (penetration measure, shift limit).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Walls<D: Dim> {
     /// The wall model.
@@ -81,10 +82,11 @@ pub struct Walls<D: Dim> {
     /// Reflection of each wall particle's wall: `−1` along the axes normal to the wall(s) it
     /// sits behind, `+1` along the others (a corner block flips two axes).
     pub mirror: Vec<D::Vector>,
-    /// Lower corner of the fluid container.
-    pub lo: D::Vector,
-    /// Upper corner of the fluid container.
-    pub hi: D::Vector,
+    /// Where the walls are (containers and solid obstacles).
+    pub geometry: WallGeometry<D>,
+    /// Thickness of the wall layers. A fluid particle deeper in wall material than this has
+    /// passed through the wall: the step fails (see [`StepError::Escaped`](crate::StepError)).
+    pub thickness: f64,
 }
 
 /// Inconsistent wall description.
@@ -103,56 +105,45 @@ pub enum WallError {
     /// The particle set is invalid.
     #[error("walls: {0}")]
     Particles(#[from] sph_core::CoreError),
-    /// The container box is empty or not finite.
-    #[error("walls: the container box is empty or not finite")]
+    /// A geometry box is empty or not finite, or the thickness is not positive.
+    #[error("walls: a wall box is empty or not finite, or the wall thickness is not positive")]
     Box,
 }
 
 impl<D: Dim> Walls<D> {
-    /// How far `x` lies outside the container box: `max_k max(lo_k − x_k, x_k − hi_k, 0)`.
-    fn outside(&self, x: D::Vector) -> f64 {
-        (0..D::DIM)
-            .map(|k| (self.lo.get(k) - x.get(k)).max(x.get(k) - self.hi.get(k)))
-            .fold(0.0, f64::max)
+    /// How deep `x` lies in wall material (0 in the fluid region), see
+    /// [`WallGeometry::depth`].
+    pub fn depth(&self, x: D::Vector) -> f64 {
+        self.geometry.depth(x)
     }
 
-    /// Number of fluid particles outside the container box (each one has crossed a wall).
+    /// Number of fluid particles in wall material (each one has crossed a wall).
     pub fn penetrations(&self, positions: &[D::Vector]) -> usize {
         positions[..self.first]
             .iter()
-            .filter(|x| self.outside(**x) > 0.0)
+            .filter(|x| self.depth(**x) > 0.0)
             .count()
     }
 
-    /// How far the furthest fluid particle lies outside the container box (0 when none does).
-    /// Tells a particle in the half-spacing gap
-    /// between the wall line and the first wall layer (depth < Δp/2) from one that has passed
-    /// the wall particles.
+    /// How deep the deepest fluid particle lies in wall material (0 when none does). Tells a
+    /// particle in the half-spacing gap between the wall line and the first wall layer
+    /// (depth < Δp/2) from one that has passed the wall particles.
     pub fn max_intrusion(&self, positions: &[D::Vector]) -> f64 {
         positions[..self.first]
             .iter()
-            .map(|x| self.outside(*x))
+            .map(|x| self.depth(*x))
             .fold(0.0, f64::max)
     }
 
-    /// A shift `dr` of the fluid particle at `x`, with each component that points into a wall
-    /// shortened to at most half the particle's distance to that wall (zero outside the box),
-    /// so a shift can bring a particle closer to a wall but never across it; at the lattice
-    /// distance Δp/2 the allowance (Δp/4) exceeds the shift cap (0.2 Δp), so ordinary shifting
-    /// near walls is untouched. Shifting is a regularisation of the particle distribution, not a
-    /// flow: near a wall its anti-clumping term, pushed by a fluid neighbour that came too close,
-    /// could otherwise move a particle across the wall line (seen at the lid of a 100² cavity: a
-    /// particle 0.09 Δp below the lid, moving away from it, was shifted 0.2 Δp into it).
+    /// A shift `dr` of the fluid particle at `x`, shortened so that it can bring the particle
+    /// closer to a wall but never across it ([`WallGeometry::limit_shift`]: a wall-ward
+    /// component takes at most half the distance to the wall). Shifting is a regularisation of
+    /// the particle distribution, not a flow: near a wall its anti-clumping term, pushed by a
+    /// fluid neighbour that came too close, could otherwise move a particle across the wall line
+    /// (seen at the lid of a 100² cavity: a particle 0.09 Δp below the lid, moving away from it,
+    /// was shifted 0.2 Δp into it).
     pub fn limit_shift(&self, x: D::Vector, dr: D::Vector) -> D::Vector {
-        D::Vector::from_fn(|k| {
-            let (d, lo, hi) = (dr.get(k), self.lo.get(k), self.hi.get(k));
-            let xk = x.get(k);
-            if d < 0.0 {
-                d.max(-0.5 * (xk - lo).max(0.0))
-            } else {
-                d.min(0.5 * (hi - xk).max(0.0))
-            }
-        })
+        self.geometry.limit_shift(x, dr)
     }
 
     /// No-slip (viscous) wall velocity, Adami et al. (2012) Eqs. (22)–(23):
@@ -229,7 +220,7 @@ impl<D: Dim> Walls<D> {
                 let (mut sum_w, mut sum_u) = (0.0, D::Vector::ZERO);
                 for j in ctx.neighbors_of(nf + k) {
                     if j < nf {
-                        let wij = ctx.kernel.w((xw - ctx.positions[j]).length());
+                        let wij = ctx.kernel.w(ctx.pair(xw, j).length());
                         sum_w += wij;
                         sum_u += u[j] * wij;
                     }
@@ -252,11 +243,7 @@ impl<D: Dim> Walls<D> {
                 particles,
             });
         }
-        let ok = (0..D::DIM).all(|k| {
-            let (a, b) = (self.lo.get(k), self.hi.get(k));
-            a.is_finite() && b.is_finite() && a < b
-        });
-        if !ok {
+        if !(self.geometry.is_valid() && self.thickness.is_finite() && self.thickness > 0.0) {
             return Err(WallError::Box);
         }
         Ok(())

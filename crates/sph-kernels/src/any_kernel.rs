@@ -15,6 +15,15 @@ pub enum KernelKind {
 }
 
 impl KernelKind {
+    /// The name as written in scene files and outputs (`quintic_spline`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            KernelKind::QuinticSpline => "quintic_spline",
+            KernelKind::WendlandC2 => "wendland_c2",
+            KernelKind::CubicSpline => "cubic_spline",
+        }
+    }
+
     /// Support radius in units of `h`.
     pub fn support_factor(self) -> f64 {
         match self {

@@ -1,5 +1,5 @@
 use crate::{CellGrid, KdTree, NeighborError, NeighborList, NeighborSearch};
-use sph_core::Dim;
+use sph_core::{Dim, Periodic};
 
 /// Neighbour-search backend as named in a scene file.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -47,6 +47,12 @@ impl<D: Dim> NeighborSearch<D> for AnySearch<D> {
         match self {
             AnySearch::CellGrid(s) => s.radius(),
             AnySearch::KdTree(s) => s.radius(),
+        }
+    }
+    fn set_periodic(&mut self, periodic: Option<Periodic<D>>) {
+        match self {
+            AnySearch::CellGrid(s) => s.set_periodic(periodic),
+            AnySearch::KdTree(s) => s.set_periodic(periodic),
         }
     }
 }

@@ -5,10 +5,10 @@
 //! scans `3^(D−1)` such runs: 3 in 2D, 9 in 3D. 2D and 3D share this code; the only difference is
 //! the number of cell axes, a compile-time constant.
 
-use crate::search::{fill_rows, validate};
+use crate::search::{collect_images, fill_rows, validate};
 use crate::{NeighborError, NeighborList, NeighborSearch};
 use rayon::prelude::*;
-use sph_core::{Dim, VectorOps};
+use sph_core::{Dim, Periodic, VectorOps};
 
 /// Cells along each axis are addressed with `i64`; refuse spans above this many radii.
 const MAX_SPAN: f64 = (1u64 << 50) as f64;
@@ -26,6 +26,7 @@ pub struct CellGrid<D: Dim> {
     /// Point coordinates in cell order (a copy, so runs are read contiguously).
     sorted_pts: Vec<D::Vector>,
     cells: CellIndex,
+    periodic: Option<Periodic<D>>,
 }
 
 /// Where each cell's points start in the sorted arrays.
@@ -53,6 +54,7 @@ impl<D: Dim> CellGrid<D> {
             sorted_idx: Vec::new(),
             sorted_pts: Vec::new(),
             cells: CellIndex::Empty,
+            periodic: None,
         }
     }
 
@@ -142,7 +144,7 @@ fn cmp_zyx(a: &[i64; 3], b: &[i64; 3]) -> std::cmp::Ordering {
 
 impl<D: Dim> NeighborSearch<D> for CellGrid<D> {
     fn build(&mut self, points: &[D::Vector], radius: f64) -> Result<(), NeighborError> {
-        validate::<D>(points, radius)?;
+        validate::<D>(points, radius, self.periodic.as_ref())?;
         let n = points.len();
         self.radius = radius;
         self.inv_cell = 1.0 / radius;
@@ -221,10 +223,17 @@ impl<D: Dim> NeighborSearch<D> for CellGrid<D> {
     }
 
     fn query(&self, points: &[D::Vector], out: &mut NeighborList) {
-        fill_rows(points, out, |q, buf| self.collect(q, buf));
+        let p = self.periodic.as_ref();
+        fill_rows(points, out, |q, buf| {
+            collect_images(p, self.radius, q, buf, |q, buf| self.collect(q, buf))
+        });
     }
 
     fn radius(&self) -> f64 {
         self.radius
+    }
+
+    fn set_periodic(&mut self, periodic: Option<Periodic<D>>) {
+        self.periodic = periodic;
     }
 }

@@ -21,6 +21,9 @@ pub enum NeighborError {
         /// Extent of the bounding box divided by the radius.
         span_over_radius: f64,
     },
+    /// The periodic description does not fit the points or the radius.
+    #[error("periodic search: {0}")]
+    Periodic(String),
     /// The kd-tree backend refused the input.
     #[error("kd-tree construction failed: {0}")]
     KdTree(String),

@@ -4,10 +4,10 @@
 //! is stored as a two-variant enum and the variant is picked by `D::DIM` (a compile-time
 //! constant); the rest of dgsph stays free of a kiddo-specific bound.
 
-use crate::search::{fill_rows, validate};
+use crate::search::{collect_images, fill_rows, validate};
 use crate::{NeighborError, NeighborList, NeighborSearch};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
-use sph_core::{Dim, VectorOps};
+use sph_core::{Dim, Periodic, VectorOps};
 use std::marker::PhantomData;
 
 enum Tree {
@@ -21,6 +21,7 @@ enum Tree {
 pub struct KdTree<D: Dim> {
     radius: f64,
     tree: Tree,
+    periodic: Option<Periodic<D>>,
     _dim: PhantomData<D>,
 }
 
@@ -44,6 +45,7 @@ impl<D: Dim> KdTree<D> {
         Self {
             radius: 0.0,
             tree: Tree::Empty,
+            periodic: None,
             _dim: PhantomData,
         }
     }
@@ -55,7 +57,7 @@ fn arr<const K: usize, V: VectorOps>(p: &V) -> [f64; K] {
 
 impl<D: Dim> NeighborSearch<D> for KdTree<D> {
     fn build(&mut self, points: &[D::Vector], radius: f64) -> Result<(), NeighborError> {
-        validate::<D>(points, radius)?;
+        validate::<D>(points, radius, self.periodic.as_ref())?;
         self.radius = radius;
         let err = |e: kiddo::kd_tree::ConstructionError| NeighborError::KdTree(e.to_string());
         self.tree = if points.is_empty() {
@@ -72,7 +74,7 @@ impl<D: Dim> NeighborSearch<D> for KdTree<D> {
 
     fn query(&self, points: &[D::Vector], out: &mut NeighborList) {
         let r2 = self.radius * self.radius;
-        fill_rows(points, out, |q, buf| match &self.tree {
+        let one = |q: &D::Vector, buf: &mut Vec<u32>| match &self.tree {
             Tree::Empty => {}
             Tree::D2(t) => t
                 .query(&arr::<2, _>(q))
@@ -84,10 +86,18 @@ impl<D: Dim> NeighborSearch<D> for KdTree<D> {
                 .within::<SquaredEuclidean<f64>>(r2)
                 .unsorted()
                 .visit(|it| buf.push(it.item)),
+        };
+        let p = self.periodic.as_ref();
+        fill_rows(points, out, |q, buf| {
+            collect_images(p, self.radius, q, buf, one)
         });
     }
 
     fn radius(&self) -> f64 {
         self.radius
+    }
+
+    fn set_periodic(&mut self, periodic: Option<Periodic<D>>) {
+        self.periodic = periodic;
     }
 }

@@ -1,6 +1,6 @@
 use crate::{NeighborError, NeighborList};
 use rayon::prelude::*;
-use sph_core::{Dim, VectorOps};
+use sph_core::{Dim, Periodic, VectorOps};
 
 /// A fixed-radius neighbour search over an indexed point set.
 pub trait NeighborSearch<D: Dim>: Send + Sync {
@@ -17,11 +17,37 @@ pub trait NeighborSearch<D: Dim>: Send + Sync {
 
     /// The radius given to the last `build`.
     fn radius(&self) -> f64;
+
+    /// Makes the search periodic along the axes of `periodic` (or not, with `None`): the next
+    /// `build` requires the points inside the periodic box and a radius below half of every
+    /// period, and queries then find neighbours across the periodic faces (by the images of the
+    /// query point, see [`Periodic::for_each_image`]). Row indices are those of the indexed
+    /// points; the caller takes pair vectors as minimum images.
+    fn set_periodic(&mut self, periodic: Option<Periodic<D>>);
 }
 
-pub(crate) fn validate<D: Dim>(points: &[D::Vector], radius: f64) -> Result<(), NeighborError> {
+pub(crate) fn validate<D: Dim>(
+    points: &[D::Vector],
+    radius: f64,
+    periodic: Option<&Periodic<D>>,
+) -> Result<(), NeighborError> {
     if !(radius.is_finite() && radius > 0.0) {
         return Err(NeighborError::InvalidRadius(radius));
+    }
+    if let Some(p) = periodic {
+        p.check_radius(radius)
+            .map_err(|e| NeighborError::Periodic(e.to_string()))?;
+        let outside = points.iter().position(|x| {
+            (0..D::DIM).any(|k| {
+                let (l, lo) = (p.period().get(k), p.lo().get(k));
+                l > 0.0 && !(x.get(k) >= lo && x.get(k) < lo + l)
+            })
+        });
+        if let Some(index) = outside {
+            return Err(NeighborError::Periodic(format!(
+                "point {index} lies outside the periodic box along a periodic axis"
+            )));
+        }
     }
     if points.len() >= u32::MAX as usize {
         return Err(NeighborError::TooManyPoints(points.len()));
@@ -86,19 +112,39 @@ fn concat(chunks: &[Vec<u32>], dst: &mut [u32]) {
     rayon::join(|| concat(&chunks[..mid], dl), || concat(&chunks[mid..], dr));
 }
 
-/// O(n·m) reference search: the oracle the fast searches are tested against.
+/// O(n·m) reference search: the oracle the fast searches are tested against. With `periodic`,
+/// distances are minimum images.
 pub fn brute_force<D: Dim>(
     indexed: &[D::Vector],
     queries: &[D::Vector],
     radius: f64,
+    periodic: Option<&Periodic<D>>,
     out: &mut NeighborList,
 ) {
     let r2 = radius * radius;
     fill_rows(queries, out, |q, buf| {
         for (j, x) in indexed.iter().enumerate() {
-            if (*x - *q).length_squared() <= r2 {
+            let d = *x - *q;
+            let d = periodic.map_or(d, |p| p.minimum_image(d));
+            if d.length_squared() <= r2 {
                 buf.push(j as u32);
             }
         }
     });
+}
+
+/// `collect(q', buf)` for the query point itself and, with `periodic`, each of its images
+/// within `radius` of a periodic face.
+#[inline(always)]
+pub(crate) fn collect_images<D: Dim>(
+    periodic: Option<&Periodic<D>>,
+    radius: f64,
+    q: &D::Vector,
+    buf: &mut Vec<u32>,
+    collect: impl Fn(&D::Vector, &mut Vec<u32>),
+) {
+    match periodic {
+        None => collect(q, buf),
+        Some(p) => p.for_each_image(*q, radius, |qi| collect(&qi, buf)),
+    }
 }

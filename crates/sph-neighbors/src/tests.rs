@@ -2,7 +2,7 @@
 
 use crate::*;
 use sph_core::testing::{SplitMix64, random_cloud};
-use sph_core::{Dim, VectorOps};
+use sph_core::{Dim, Periodic, VectorOps};
 
 fn searches<D: Dim>() -> Vec<(&'static str, AnySearch<D>)> {
     vec![
@@ -14,7 +14,7 @@ fn searches<D: Dim>() -> Vec<(&'static str, AnySearch<D>)> {
 /// Asserts that every search gives the brute-force lists for `queries` against `points`.
 fn check_against_brute_force<D: Dim>(points: &[D::Vector], queries: &[D::Vector], radius: f64) {
     let mut expect = NeighborList::new();
-    brute_force::<D>(points, queries, radius, &mut expect);
+    brute_force::<D>(points, queries, radius, None, &mut expect);
     for (name, mut s) in searches::<D>() {
         s.build(points, radius).unwrap();
         let mut got = NeighborList::new();
@@ -126,7 +126,7 @@ sph_core::dim_tests! {
             }
             s.build(&pts, 0.08).unwrap();
             s.query(&pts, &mut nl);
-            brute_force::<D>(&pts, &pts, 0.08, &mut expect);
+            brute_force::<D>(&pts, &pts, 0.08, None, &mut expect);
             assert!(nl.same_rows(&expect));
         }
     }
@@ -145,5 +145,55 @@ sph_core::dim_tests! {
         let wide = vec![D::Vector::ZERO, D::Vector::from_fn(|_| 1e300)];
         let mut g = CellGrid::<D>::new();
         assert!(matches!(g.build(&wide, 1e-3), Err(NeighborError::DomainTooWide { .. })));
+    }
+}
+
+sph_core::dim_tests! {
+    /// Periodic search equals the minimum-image brute force, for both backends, with points
+    /// crowding the periodic faces and corners; rows hold no duplicates.
+    fn periodic_search_matches_minimum_image_brute_force<D>() {
+        let hi = D::Vector::from_fn(|k| [1.0, 0.7, 0.9][k]);
+        let axes = [true, D::DIM == 2, D::DIM == 3];
+        let per = Periodic::<D>::new(D::Vector::ZERO, hi, axes).unwrap();
+        let mut pts: Vec<D::Vector> = random_cloud::<D>(2500, 0.0, 1.0, 21)
+            .into_iter()
+            .map(|x| per.wrap(D::Vector::from_fn(|k| x.get(k) * hi.get(k))))
+            .collect();
+        // Points on and next to the faces.
+        pts.push(D::Vector::ZERO);
+        pts.push(per.wrap(D::Vector::from_fn(|k| if k == 0 { hi.get(0) - 1e-12 } else { 0.0 })));
+        let r = 0.12;
+        let mut expect = NeighborList::new();
+        brute_force::<D>(&pts, &pts, r, Some(&per), &mut expect);
+        for (name, mut s) in searches::<D>() {
+            s.set_periodic(Some(per));
+            s.build(&pts, r).unwrap();
+            let mut got = NeighborList::new();
+            s.query(&pts, &mut got);
+            for i in 0..pts.len() {
+                assert_eq!(got.row(i), expect.row(i), "{name} {}: row {i}", D::NAME);
+                assert!(got.row(i).windows(2).all(|w| w[0] < w[1]));
+            }
+        }
+        // Across the x face: the point at the origin sees the one just below x = 1.
+        let (a, b) = (pts.len() as u32 - 2, pts.len() as u32 - 1);
+        assert!(expect.row(a as usize).contains(&b));
+    }
+
+    fn periodic_search_refuses_a_short_period_or_a_point_outside<D>() {
+        let per = Periodic::<D>::new(
+            D::Vector::ZERO,
+            D::Vector::from_fn(|_| 1.0),
+            [true, false, false],
+        )
+        .unwrap();
+        for (_, mut s) in searches::<D>() {
+            s.set_periodic(Some(per));
+            let inside = vec![D::Vector::from_fn(|_| 0.5)];
+            assert!(matches!(s.build(&inside, 0.5), Err(NeighborError::Periodic(_))));
+            let outside = vec![D::Vector::from_fn(|k| if k == 0 { 1.0 } else { 0.5 })];
+            assert!(matches!(s.build(&outside, 0.1), Err(NeighborError::Periodic(_))));
+            assert!(s.build(&inside, 0.1).is_ok());
+        }
     }
 }

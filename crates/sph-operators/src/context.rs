@@ -1,5 +1,5 @@
 use rayon::prelude::*;
-use sph_core::Dim;
+use sph_core::{Dim, Periodic};
 use sph_kernels::Kernel;
 use sph_neighbors::NeighborList;
 
@@ -17,6 +17,8 @@ pub struct SphContext<'a, D: Dim, K: Kernel<D>> {
     pub neighbors: &'a NeighborList,
     /// Smoothing kernel.
     pub kernel: &'a K,
+    /// Periodic axes, if any: pair vectors are then minimum images (see [`SphContext::pair`]).
+    pub periodic: Option<Periodic<D>>,
 }
 
 impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
@@ -39,6 +41,24 @@ impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
             volumes,
             neighbors,
             kernel,
+            periodic: None,
+        }
+    }
+
+    /// The same context on a periodic domain (`None`: not periodic).
+    pub fn with_periodic(mut self, periodic: Option<Periodic<D>>) -> Self {
+        self.periodic = periodic;
+        self
+    }
+
+    /// The pair vector `x_ij = x_i − x_j` from `x_i` to neighbour `j`, as the minimum image
+    /// across periodic axes when the domain has any.
+    #[inline(always)]
+    pub fn pair(&self, xi: D::Vector, j: usize) -> D::Vector {
+        let d = xi - self.positions[j];
+        match &self.periodic {
+            None => d,
+            Some(p) => p.minimum_image(d),
         }
     }
 

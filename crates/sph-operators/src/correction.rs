@@ -35,7 +35,7 @@ pub fn correction_matrices<D: Dim, K: Kernel<D>>(
             let xi = ctx.positions[i];
             let mut b = D::Matrix::ZERO;
             for j in ctx.neighbors_of(i) {
-                let x_ij = xi - ctx.positions[j];
+                let x_ij = ctx.pair(xi, j);
                 let g = ctx.kernel.grad_w(x_ij);
                 b += D::Matrix::outer(g, -x_ij) * ctx.volumes[j];
             }

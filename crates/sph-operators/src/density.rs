@@ -15,7 +15,7 @@ pub fn density_summation<D: Dim, K: Kernel<D>>(
     gather(out, |i| {
         let xi = ctx.positions[i];
         ctx.neighbors_of(i)
-            .map(|j| masses[j] * ctx.kernel.w((xi - ctx.positions[j]).length()))
+            .map(|j| masses[j] * ctx.kernel.w(ctx.pair(xi, j).length()))
             .sum()
     });
 }

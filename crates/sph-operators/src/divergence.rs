@@ -25,7 +25,7 @@ pub fn divergence<D: Dim, K: Kernel<D>>(
             let ui = u[i];
             let mut s = 0.0;
             for j in ctx.neighbors_of(i) {
-                let g = ctx.kernel.grad_w(xi - ctx.positions[j]);
+                let g = ctx.kernel.grad_w(ctx.pair(xi, j));
                 s += ctx.volumes[j] * (u[j] - ui).dot(g);
             }
             s
@@ -45,7 +45,7 @@ pub(crate) fn raw_velocity_gradient<D: Dim, K: Kernel<D>>(
     let ui = u[i];
     let mut m = D::Matrix::ZERO;
     for j in ctx.neighbors_of(i) {
-        let g = ctx.kernel.grad_w(xi - ctx.positions[j]);
+        let g = ctx.kernel.grad_w(ctx.pair(xi, j));
         m += D::Matrix::outer(u[j] - ui, g * ctx.volumes[j]);
     }
     m

@@ -18,7 +18,7 @@ pub fn free_surface_indicator<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, 
         let xi = ctx.positions[i];
         let mut s = 0.0;
         for j in ctx.neighbors_of(i) {
-            let x_ij = xi - ctx.positions[j];
+            let x_ij = ctx.pair(xi, j);
             s -= ctx.volumes[j] * x_ij.dot(ctx.kernel.grad_w(x_ij));
         }
         s

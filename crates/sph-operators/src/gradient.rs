@@ -36,7 +36,7 @@ pub fn gradient<D: Dim, K: Kernel<D>>(
         let fi = sign * f[i];
         let mut acc = D::Vector::ZERO;
         for j in ctx.neighbors_of(i) {
-            let g = ctx.kernel.grad_w(xi - ctx.positions[j]);
+            let g = ctx.kernel.grad_w(ctx.pair(xi, j));
             acc += g * (ctx.volumes[j] * (f[j] + fi));
         }
         corrected::<D>(corrections, i, acc)

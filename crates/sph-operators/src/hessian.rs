@@ -54,7 +54,7 @@ pub(crate) fn eq25_stencil<D: Dim, K: Kernel<D>>(
     let eta2 = laplacian_regulariser(ctx.kernel.h());
     let xi = ctx.positions[i];
     for (k, j) in ctx.neighbors_of(i).enumerate() {
-        let x_ij = xi - ctx.positions[j];
+        let x_ij = ctx.pair(xi, j);
         let r2 = x_ij.length_squared();
         if r2 == 0.0 {
             continue;

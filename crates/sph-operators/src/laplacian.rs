@@ -17,7 +17,7 @@ pub fn laplacian<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, f: &[f64], ou
         let xi = ctx.positions[i];
         let mut s = 0.0;
         for j in ctx.neighbors_of(i) {
-            s += ctx.volumes[j] * (f[i] - f[j]) * pair_f::<D, K>(ctx.kernel, xi - ctx.positions[j]);
+            s += ctx.volumes[j] * (f[i] - f[j]) * pair_f::<D, K>(ctx.kernel, ctx.pair(xi, j));
         }
         2.0 * s
     });

@@ -66,7 +66,7 @@ pub fn hessian_stencil_fit<D: Dim, K: Kernel<D>>(
     let mut m = [0.0; MAX_N * MAX_N];
     let mut phi = [0.0; MAX_N];
     for j in ctx.neighbors_of(i) {
-        let y = ctx.positions[j] - xi;
+        let y = -ctx.pair(xi, j);
         let w = ctx.volumes[j] * ctx.kernel.w(y.length());
         if j == i || w == 0.0 {
             continue;
@@ -89,7 +89,7 @@ pub fn hessian_stencil_fit<D: Dim, K: Kernel<D>>(
         return false;
     };
     for (k, j) in ctx.neighbors_of(i).enumerate() {
-        let y = ctx.positions[j] - xi;
+        let y = -ctx.pair(xi, j);
         let w = ctx.volumes[j] * ctx.kernel.w(y.length());
         if j == i || w == 0.0 {
             continue;

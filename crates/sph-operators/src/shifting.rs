@@ -28,7 +28,7 @@ pub fn concentration_gradient<D: Dim, K: Kernel<D>>(
             if j == i {
                 continue;
             }
-            let x_ij = xi - ctx.positions[j];
+            let x_ij = ctx.pair(xi, j);
             let ratio = if w_dp > 0.0 {
                 ctx.kernel.w(x_ij.length()) / w_dp
             } else {

@@ -34,7 +34,7 @@ pub fn viscous_acceleration<D: Dim, K: Kernel<D>>(
             }
             let mu_sum = nu * (densities[i] + densities[j]);
             let c = masses[j] * mu_sum / (densities[i] * densities[j])
-                * pair_f::<D, K>(ctx.kernel, xi - ctx.positions[j]);
+                * pair_f::<D, K>(ctx.kernel, ctx.pair(xi, j));
             a += (u[i] - u[j]) * c;
         }
         a

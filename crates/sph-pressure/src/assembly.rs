@@ -54,8 +54,7 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
                 continue;
             }
             let rho = densities[i] + densities[j];
-            let c =
-                -masses[j] * 8.0 / (rho * rho) * pair_f::<D, K>(ctx.kernel, xi - ctx.positions[j]);
+            let c = -masses[j] * 8.0 / (rho * rho) * pair_f::<D, K>(ctx.kernel, ctx.pair(xi, j));
             sum += c;
             if !dirichlet[j] {
                 row[k] = -c;

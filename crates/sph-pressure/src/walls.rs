@@ -47,7 +47,7 @@ pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
         for (v, &j) in row.iter_mut().zip(cols) {
             let j = j as usize;
             *v = if j < first_wall {
-                let wij = ctx.kernel.w((xw - ctx.positions[j]).length());
+                let wij = ctx.kernel.w(ctx.pair(xw, j).length());
                 sum_w += wij;
                 -wij
             } else {
@@ -80,7 +80,7 @@ pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
                 for (&v, &j) in a.iter().zip(nl.row(w)) {
                     let j = j as usize;
                     if j < first_wall {
-                        *r -= v * densities[j] * g.dot(xw - ctx.positions[j]);
+                        *r -= v * densities[j] * g.dot(ctx.pair(xw, j));
                     }
                 }
             }

@@ -1,8 +1,10 @@
 //! Lid-driven cavity: walls, gauge, first step from rest, short runs.
 
+use crate::support::{run, run_with};
+use sph_cases::run::RunControl;
 use sph_cases::{Scene, cavity};
 use sph_core::{D2, D3, Dim};
-use sph_integrators::{Integrator, Scheme, SchemeKind, Simulation, StepReport};
+use sph_integrators::{Diagnostics, Integrator, Scheme, SchemeKind, StepReport};
 
 fn scene(dim: usize, dx: f64, dt: f64, re: f64, shifting: bool) -> Scene {
     let fx = if shifting {
@@ -27,8 +29,9 @@ fn first_step<D: Dim>(kind: SchemeKind) -> (StepReport, f64) {
         100.0,
         false,
     );
-    let c = cavity::setup::<D>(&s).unwrap();
-    let mut sim = Simulation::with_walls(c.particles, c.config, c.walls).unwrap();
+    let mut c = cavity::setup::<D>(&s).unwrap();
+    c.config.diagnostics = Diagnostics::ALL;
+    let mut sim = c.simulation().unwrap();
     let rep = Scheme::new(kind).step(&mut sim, 0.01).unwrap();
     let nf = sim.fluid_len();
     let p = &sim.particles.pressures[..nf];
@@ -75,22 +78,18 @@ fn short_run_holds<D: Dim>(t_end: f64) {
     s.t_end = t_end;
     s.cavity.as_mut().unwrap().check_ghia = Some(false);
     for kind in SchemeKind::ALL {
-        let run = cavity::run::<D>(
-            &s,
-            kind,
-            sph_cases::reference::References::embedded(),
-            &mut |_, _| Ok(()),
-        )
-        .unwrap();
-        let last = run.records.last().unwrap();
-        assert!(last.kinetic_energy.is_finite() && last.kinetic_energy > 0.0);
-        for c in cavity::checks("t", &s, kind, &run) {
+        let (out, sink) = run(&s, kind);
+        assert!(out.failure.is_none(), "{kind:?}: {:?}", out.failure);
+        let ke = sink.last("kinetic_energy");
+        assert!(ke.is_finite() && ke > 0.0);
+        assert!(!out.checks.is_empty());
+        for c in &out.checks {
             assert!(
                 c.passed(),
-                "{kind:?} {}: {} vs {}",
+                "{kind:?} {}: {} vs {:?}",
                 c.name,
                 c.value,
-                c.reference
+                c.criterion
             );
         }
     }
@@ -127,16 +126,7 @@ fn short_run_holds_d3() {
 fn dg_density_error_below_euler_and_pc() {
     let mut s = scene(2, 0.05, 0.01, 400.0, true);
     s.t_end = 2.0;
-    let rms = |kind| {
-        let run = cavity::run::<D2>(
-            &s,
-            kind,
-            sph_cases::reference::References::embedded(),
-            &mut |_, _| Ok(()),
-        )
-        .unwrap();
-        run.records.last().unwrap().density_error_rms
-    };
+    let rms = |kind| run(&s, kind).1.last("density_error_rms");
     let (e, p, d) = (
         rms(SchemeKind::Euler),
         rms(SchemeKind::PredictorCorrector),
@@ -148,12 +138,11 @@ fn dg_density_error_below_euler_and_pc() {
     );
 }
 
-/// Checkpoint and resume: stopping after 4 steps and resuming from the checkpoint in a fresh
-/// run gives the uninterrupted run's state bit for bit, and its last record; a checkpoint of
-/// another scene is refused with an error, not a panic.
+/// Checkpoint and resume in memory: resuming from the step-4 checkpoint gives the
+/// uninterrupted run's state bit for bit, and its last record and tables; a checkpoint of
+/// another scene is refused with an error, not a panic. (The path users take, through the
+/// checkpoint file in a new process, is tested by the `dgsph` binary's tests.)
 fn resumed_run_continues_bit_for_bit<D: Dim>() {
-    use sph_cases::reference::References;
-    use sph_integrators::Checkpoint;
     let mut s = scene(
         D::DIM,
         if D::DIM == 2 { 0.1 } else { 0.25 },
@@ -163,46 +152,42 @@ fn resumed_run_continues_bit_for_bit<D: Dim>() {
     );
     s.t_end = 0.08;
     s.schemes = vec![SchemeKind::PredictorCorrector];
-    let refs = References::embedded();
-    let run = |resume: Option<&Checkpoint>| {
-        let mut saved: Vec<Checkpoint> = Vec::new();
-        let mut save = |c: &Checkpoint| {
-            saved.push(c.clone());
-            Ok(())
-        };
-        let control = cavity::RunControl {
-            resume,
-            checkpoint_every: Some(4),
-            save: Some(&mut save),
-        };
-        let out =
-            cavity::run_with::<D>(&s, s.schemes[0], refs, control, &mut |_, _| Ok(())).unwrap();
-        (out, saved)
+    let control = |resume| RunControl {
+        resume,
+        checkpoint_every: Some(4),
+        checkpoint_meta: "test".into(),
     };
-    let (straight, saved) = run(None);
+    let (_, straight) = run_with(&s, s.schemes[0], control(None));
+    let saved = &straight.checkpoints;
     assert_eq!(saved.iter().map(|c| c.step).collect::<Vec<_>>(), [4, 8]);
-    let (resumed, saved_again) = run(Some(&saved[0]));
-    assert_eq!(saved_again.len(), 1);
-    assert_eq!(saved_again[0], saved[1], "resumed state differs");
+    let (_, resumed) = run_with(&s, s.schemes[0], control(Some(&saved[0])));
+    assert_eq!(resumed.checkpoints.len(), 1);
+    assert_eq!(resumed.checkpoints[0], saved[1], "resumed state differs");
     assert!(saved[1].positions != saved[0].positions, "the run moved");
-    // Equal records, except the wall-clock step time.
-    let last = |r: &cavity::CavityRun| {
-        let mut l = r.records.last().unwrap().clone();
-        l.step_seconds = 0.0;
-        l
+    // Equal last records, except the wall-clock columns.
+    let last = |m: &sph_cases::run::MemorySink| {
+        let r = m.records.last().unwrap().clone();
+        r.into_iter()
+            .zip(&m.columns)
+            .filter(|(_, c)| !c.contains("seconds"))
+            .map(|(v, _)| v.to_bits())
+            .collect::<Vec<_>>()
     };
     assert_eq!(last(&resumed), last(&straight));
-    assert_eq!(resumed.profiles, straight.profiles);
+    assert_eq!(resumed.tables.last(), straight.tables.last());
     // A checkpoint of a finer lattice does not fit.
     let mut finer = s.clone();
     finer.dx *= 0.5;
-    let control = cavity::RunControl {
-        resume: Some(&saved[0]),
-        ..Default::default()
-    };
-    let err = cavity::run_with::<D>(&finer, s.schemes[0], refs, control, &mut |_, _| Ok(()))
-        .unwrap_err()
-        .to_string();
+    let mut sink = sph_cases::run::MemorySink::default();
+    let err = sph_cases::registry::run_scheme(
+        &finer,
+        s.schemes[0],
+        sph_cases::reference::References::embedded(),
+        control(Some(&saved[0])),
+        &mut sink,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(err.contains("resuming") && err.contains("entries"), "{err}");
 }
 

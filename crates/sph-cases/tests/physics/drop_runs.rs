@@ -1,8 +1,7 @@
 //! Multi-step runs of the 2D drop (dx = 0.025, quintic, h = 1.3 dx) to t = 0.003.
 
-use sph_cases::drop::{run, volume_change};
+use crate::support::run;
 use sph_cases::{CaseKind, Scene};
-use sph_core::D2;
 use sph_integrators::SchemeKind;
 
 fn scene(dt: f64) -> Scene {
@@ -10,15 +9,7 @@ fn scene(dt: f64) -> Scene {
 }
 
 fn dv(dt: f64, scheme: SchemeKind) -> f64 {
-    volume_change(
-        &run::<D2>(
-            &scene(dt),
-            scheme,
-            sph_cases::reference::References::embedded(),
-            &mut |_, _| Ok(()),
-        )
-        .unwrap(),
-    )
+    run(&scene(dt), scheme).0.results["volume_change"]
 }
 
 #[test]

@@ -4,4 +4,5 @@ mod cavity;
 mod drop_runs;
 mod section3;
 mod step_one;
+mod support;
 mod walls;

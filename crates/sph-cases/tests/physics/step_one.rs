@@ -2,10 +2,10 @@
 //! the bulk volume change measured exactly (the local linear map of lattice neighbourhoods) and
 //! the central pressure, against the values the paper's analysis predicts.
 
-use sph_cases::drop::{mean_local_volume_change, setup};
+use sph_cases::drop::{initial, mean_local_volume_change};
 use sph_cases::{CaseKind, DgHessianChoice, Scene};
 use sph_core::{D2, D3, Dim};
-use sph_integrators::{Integrator, Scheme, SchemeKind, Simulation};
+use sph_integrators::{Diagnostics, Integrator, Scheme, SchemeKind, Simulation};
 
 fn scene(case: CaseKind, dx: f64, dt: f64, hessian: DgHessianChoice) -> Scene {
     Scene {
@@ -16,9 +16,11 @@ fn scene(case: CaseKind, dx: f64, dt: f64, hessian: DgHessianChoice) -> Scene {
 
 /// (mean bulk volume change, central pressure, max |∇·u|) after one step.
 fn one_step<D: Dim>(scene: &Scene, scheme: SchemeKind) -> (f64, f64, f64) {
-    let s = setup::<D>(scene, sph_cases::reference::References::embedded());
-    let before = s.particles.positions.clone();
-    let mut sim = Simulation::new(s.particles, s.config).unwrap();
+    let (particles, centre) = initial::<D>(scene);
+    let before = particles.positions.clone();
+    let mut config = scene.sim_config();
+    config.diagnostics = Diagnostics::ALL;
+    let mut sim = Simulation::new(particles, config).unwrap();
     let report = Scheme::new(scheme).step(&mut sim, scene.dt).unwrap();
     let dv = mean_local_volume_change::<D>(&before, &sim.particles.positions, scene.dx, 4.0);
     println!(
@@ -26,11 +28,15 @@ fn one_step<D: Dim>(scene: &Scene, scheme: SchemeKind) -> (f64, f64, f64) {
         D::NAME,
         scheme,
         scene.dt,
-        sim.particles.pressures[s.centre],
+        sim.particles.pressures[centre],
         report.solve.iterations,
         report.det_f
     );
-    (dv, sim.particles.pressures[s.centre], report.max_div_u)
+    (
+        dv,
+        sim.particles.pressures[centre],
+        report.max_div_u.expect("diagnostic on"),
+    )
 }
 
 #[test]
@@ -51,9 +57,9 @@ fn step_one_bulk_volume_and_pressure_2d() {
 
 /// Bulk volume change of one step, measured ≥ `margin` lattice spacings inside the surface.
 fn one_step_bulk<D: Dim>(scene: &Scene, scheme: SchemeKind, margin: f64) -> f64 {
-    let s = setup::<D>(scene, sph_cases::reference::References::embedded());
-    let before = s.particles.positions.clone();
-    let mut sim = Simulation::new(s.particles, s.config).unwrap();
+    let (particles, _) = initial::<D>(scene);
+    let before = particles.positions.clone();
+    let mut sim = Simulation::new(particles, scene.sim_config()).unwrap();
     Scheme::new(scheme).step(&mut sim, scene.dt).unwrap();
     mean_local_volume_change::<D>(&before, &sim.particles.positions, scene.dx, margin)
 }

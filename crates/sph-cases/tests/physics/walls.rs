@@ -11,7 +11,7 @@
 
 use sph_cases::{Scene, cavity};
 use sph_core::{Dim, VectorOps};
-use sph_integrators::{Integrator, Scheme, SchemeKind, Simulation, WallCondition};
+use sph_integrators::{Integrator, Scheme, SchemeKind, WallCondition};
 
 enum Init {
     Stream,
@@ -36,9 +36,10 @@ fn one_projection<D: Dim>(
     )
     .unwrap();
     let mut c = cavity::setup::<D>(&s).unwrap();
-    c.walls.condition = condition;
-    c.walls.velocity.fill(D::Vector::ZERO);
-    let nf = c.walls.first;
+    let walls = c.walls.as_mut().unwrap();
+    walls.condition = condition;
+    walls.velocity.fill(D::Vector::ZERO);
+    let nf = walls.first;
     let pi = std::f64::consts::PI;
     for (u, x) in c.particles.velocities[..nf]
         .iter_mut()
@@ -60,7 +61,7 @@ fn one_projection<D: Dim>(
     }
     let x = c.particles.positions[..nf].to_vec();
     let u0 = c.particles.velocities[..nf].to_vec();
-    let mut sim = Simulation::with_walls(c.particles, c.config, c.walls).unwrap();
+    let mut sim = c.simulation().unwrap();
     let rep = Scheme::new(SchemeKind::Euler).step(&mut sim, dt).unwrap();
     assert_eq!(rep.wall_penetrations, 0);
     (x, u0, sim.particles.velocities[..nf].to_vec())

@@ -84,9 +84,11 @@ impl LinearSolver for BiCgStab {
                 iterations: 0,
                 rel_residual: 0.0,
                 seconds: t0.elapsed().as_secs_f64(),
+                setup_seconds: 0.0,
             });
         }
         self.state.setup(self.precond, a)?;
+        let setup_seconds = t0.elapsed().as_secs_f64();
         for w in self.work.iter_mut() {
             w.resize(n, 0.0);
         }
@@ -206,6 +208,7 @@ impl LinearSolver for BiCgStab {
             iterations,
             rel_residual,
             seconds: t0.elapsed().as_secs_f64(),
+            setup_seconds,
         })
     }
 }

@@ -41,6 +41,7 @@ impl LinearSolver for SparseLu {
             iterations: 0,
             rel_residual,
             seconds: t0.elapsed().as_secs_f64(),
+            setup_seconds: 0.0,
         })
     }
 }

@@ -38,6 +38,8 @@ pub struct SolveInfo {
     pub rel_residual: f64,
     /// Wall time of the solve in seconds (setup included).
     pub seconds: f64,
+    /// Of which the preconditioner's set-up (factorisation, multigrid hierarchy).
+    pub setup_seconds: f64,
 }
 
 /// A square system `A x = b` with `A` in CSR form (`offsets`, sorted `cols`, `values`).
@@ -103,6 +105,18 @@ pub enum SolverKind {
     BicgstabAmg,
     /// faer sparse LU (direct). Small systems and tests only.
     SparseLu,
+}
+
+impl SolverKind {
+    /// The name as written in scene files and outputs (`bicgstab_jacobi`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::BicgstabJacobi => "bicgstab_jacobi",
+            SolverKind::BicgstabIlu0 => "bicgstab_ilu0",
+            SolverKind::BicgstabAmg => "bicgstab_amg",
+            SolverKind::SparseLu => "sparse_lu",
+        }
+    }
 }
 
 /// A solver chosen at run time.

@@ -1,0 +1,261 @@
+//! The command-line tasks shared by `dgsph` and `cargo xtask` (`run`, `check`, `report`).
+
+use crate::overrides::{Overrides, Preset};
+use crate::session::{self, AppError, RunOptions, exit};
+use std::path::PathBuf;
+
+/// Flags of `dgsph run` (and `cargo xtask run`).
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Output directory.
+    #[arg(long, default_value = "target/runs")]
+    pub out: PathBuf,
+    /// `full` (the scene as written) or `quick` (its `[quick]` overrides).
+    #[arg(long, value_enum, default_value = "full")]
+    pub preset: Preset,
+    /// Output-file prefix (default: the scene file's stem); files are `<tag>_<scheme>.*`.
+    #[arg(long)]
+    pub tag: Option<String>,
+    /// Write `<out>/<tag>_<scheme>.checkpoint` every N steps (and at the end).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub checkpoint_every: Option<u64>,
+    /// Continue every scheme from its checkpoint, appending to its records (an error if
+    /// there is no checkpoint, or if it was written under other physics).
+    #[arg(long)]
+    pub resume: bool,
+    /// Write ParaView frames (`<out>/<tag>_<scheme>.pvd` and `.vtp` files).
+    #[arg(long)]
+    pub vtk: bool,
+    /// Records between particle frames (MCAP and ParaView).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub frame_every: Option<u64>,
+    /// Seconds between progress lines when stderr is not a terminal (0: none).
+    #[arg(long, default_value_t = 5.0)]
+    pub progress_every: f64,
+    /// Changes to the scene.
+    #[command(flatten)]
+    pub overrides: Overrides,
+}
+
+/// Flags of `dgsph check`.
+#[derive(Debug, clap::Args)]
+pub struct CheckArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// `full` or `quick`.
+    #[arg(long, value_enum, default_value = "full")]
+    pub preset: Preset,
+}
+
+/// Flags of `dgsph report`.
+#[derive(Debug, clap::Args)]
+pub struct ReportArgs {
+    /// The output directory of a run or validation.
+    pub dir: PathBuf,
+}
+
+/// `dgsph run`: runs a scene; returns the exit code.
+pub fn run(args: &RunArgs) -> Result<u8, AppError> {
+    let scene = session::load_scene(&args.scene)?;
+    let scene = args.overrides.apply(args.preset.apply(&scene))?;
+    let name = args
+        .tag
+        .clone()
+        .unwrap_or_else(|| session::scene_stem(&args.scene));
+    if !(args.progress_every.is_finite() && args.progress_every >= 0.0) {
+        return Err(AppError::Input(anyhow::anyhow!(
+            "--progress-every must be ≥ 0 seconds"
+        )));
+    }
+    println!(
+        "{} ({} preset) → {}",
+        args.scene.display(),
+        args.preset.name(),
+        args.out.display()
+    );
+    let outcome = session::run_scene(
+        &scene,
+        sph_cases::reference::References::embedded(),
+        &RunOptions {
+            out: args.out.clone(),
+            name,
+            checkpoint_every: args.checkpoint_every.map(|n| n as usize),
+            resume: args.resume,
+            vtk: args.vtk,
+            frame_every: args.frame_every.map(|n| n as usize),
+            progress_every: args.progress_every,
+            verbose: true,
+        },
+    )?;
+    let passed = print_checks(&outcome.checks);
+    Ok(if outcome.failed_runs > 0 {
+        exit::RUN_FAILED
+    } else if passed {
+        exit::OK
+    } else {
+        exit::CHECKS_FAILED
+    })
+}
+
+/// Prints the pass/fail table; returns true if every check passed.
+pub fn print_checks(checks: &[sph_cases::Check]) -> bool {
+    if checks.is_empty() {
+        return true;
+    }
+    println!(
+        "\n{:<28} {:<52} {:>14} {:>22}  result",
+        "case", "check", "value", "criterion"
+    );
+    for c in checks {
+        println!(
+            "{:<28} {:<52} {:>14.6e} {:>22}  {}",
+            c.case,
+            c.name,
+            c.value,
+            c.criterion.describe(),
+            if c.passed() { "pass" } else { "FAIL" }
+        );
+    }
+    let failed = checks.iter().filter(|c| !c.passed()).count();
+    println!(
+        "\n{} checks: {} passed, {} failed",
+        checks.len(),
+        checks.len() - failed,
+        failed
+    );
+    failed == 0
+}
+
+/// `dgsph check`: validates a scene and prints what it would run.
+pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
+    let scene = args.preset.apply(&session::load_scene(&args.scene)?);
+    scene
+        .validate(&args.scene.display().to_string())
+        .map_err(|e| AppError::Input(e.into()))?;
+    let e = scene.estimate();
+    let (fluid, walls, carved) =
+        sph_cases::registry::particle_counts(&scene, sph_cases::reference::References::embedded())
+            .map_err(|e| AppError::Input(e.into()))?;
+    let n = (fluid + walls) as f64;
+    let (steps, rest) = scene.steps();
+    let mut effects = Vec::new();
+    if let Some(g) = scene.effects.gravity {
+        effects.push(format!("gravity {g:?}"));
+    }
+    if let Some(v) = scene.effects.viscosity {
+        effects.push(format!("viscosity ν = {}", v.nu));
+    }
+    if let Some(c) = &scene.cavity {
+        effects.push(format!(
+            "viscosity ν = {} (Re {})",
+            c.lid_speed.abs() / c.reynolds,
+            c.reynolds
+        ));
+    }
+    if let Some(s) = scene.effects.shifting {
+        effects.push(format!("shifting A = {}", s.coefficient));
+    }
+    if let Some(f) = scene.free_surface {
+        effects.push(format!("free surface (∇·r < {})", f.div_r_threshold));
+    }
+    if walls > 0 {
+        effects.push(format!("walls ({walls} particles)"));
+    }
+    if let Some(p) = scene.periodic_axes() {
+        let axes: Vec<&str> = ["x", "y", "z"]
+            .iter()
+            .zip(p.axes)
+            .filter(|(_, a)| *a)
+            .map(|(n, _)| *n)
+            .collect();
+        effects.push(format!("periodic {}", axes.join(", ")));
+    }
+    let bytes = n * e.bytes / e.particles().max(1.0);
+    println!(
+        "{}: valid ({} preset)",
+        args.scene.display(),
+        args.preset.name()
+    );
+    println!(
+        "  case        {} ({}D), schemes {}",
+        scene.case.name(),
+        scene.dim,
+        scene
+            .schemes
+            .iter()
+            .map(|s| s.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    println!(
+        "  particles   {fluid} fluid + {walls} wall = {}{}",
+        fluid + walls,
+        if carved > 0 {
+            format!(" ({carved} fluid lattice sites inside walls left out)")
+        } else {
+            String::new()
+        }
+    );
+    println!(
+        "  kernel      {}, h = {} (dx = {}), about {:.0} neighbours each",
+        scene.kernel.name(),
+        scene.h(),
+        scene.dx,
+        e.neighbors
+    );
+    println!(
+        "  memory      about {:.2} GiB per run (limit {:.2} GiB)",
+        bytes / (1u64 << 30) as f64,
+        scene.limits.memory_bytes() / (1u64 << 30) as f64
+    );
+    println!(
+        "  steps       {} of dt = {} to t = {}{} per scheme",
+        steps + usize::from(rest.is_some()),
+        scene.dt,
+        scene.t_end,
+        if rest.is_some() {
+            " (the last one shorter)"
+        } else {
+            ""
+        }
+    );
+    println!(
+        "  effects     {}",
+        if effects.is_empty() {
+            "none".to_string()
+        } else {
+            effects.join("; ")
+        }
+    );
+    println!(
+        "  solver      {} (tolerance {:e})",
+        scene.solver.name(),
+        scene.sim_config().solve.rel_tolerance
+    );
+    let d = scene.diagnostics();
+    println!(
+        "  diagnostics {}",
+        match (d.det_f, d.div_u) {
+            (false, false) => "none".to_string(),
+            (a, b) => [("det_f", a), ("div_u", b)]
+                .iter()
+                .filter(|x| x.1)
+                .map(|x| x.0)
+                .collect::<Vec<_>>()
+                .join(", "),
+        }
+    );
+    if !scene.check.is_empty() {
+        for c in &scene.check {
+            println!(
+                "  check       {} {}{}",
+                c.quantity,
+                c.min.map_or(String::new(), |m| format!("≥ {m} ")),
+                c.max.map_or(String::new(), |m| format!("≤ {m}"))
+            );
+        }
+    }
+    Ok(exit::OK)
+}

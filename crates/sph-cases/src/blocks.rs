@@ -1,0 +1,264 @@
+//! The geometry and output tables of a scene: `[[fluid]]`, `[[wall]]`, `[domain]`, `[output]`,
+//! `[limits]` and `[[check]]`. Each table is a plain `serde` struct that refuses unknown keys;
+//! [`Scene::validate`](crate::Scene::validate) checks the values and names the key of the first
+//! bad one (`fluid[1].radius`, `wall[0].open`, ...).
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The shape of a `[[fluid]]` block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FluidShape {
+    /// Axis-aligned box `min ≤ x ≤ max`.
+    Box,
+    /// Ellipse (2D) or ellipsoid (3D) with `center` and `semi_axes`.
+    Ellipse,
+    /// Ellipsoid: the same as `ellipse`.
+    Ellipsoid,
+    /// Circle (2D) or sphere (3D) with `center` and `radius`.
+    Circle,
+    /// Sphere: the same as `circle`.
+    Sphere,
+    /// Simple polygon (2D only) with `vertices` in order.
+    Polygon,
+}
+
+/// Where a block's lattice sits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LatticeKind {
+    /// Points at `(k + ½) dx` along every axis: the lattice the walls use, so a box whose faces
+    /// lie on multiples of `dx` fills exactly with particles `dx/2` inside its faces. Default.
+    #[default]
+    Staggered,
+    /// Points at `center + k dx`: a particle sits at the block's centre (the paper's drops).
+    Centered,
+}
+
+/// A named initial velocity field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FieldKind {
+    /// Rigid rotation `u = ω e_z × (x − center)` (in the x–y plane).
+    RigidRotation,
+    /// The Taylor–Green vortex `u = −U cos(2πx/L) sin(2πy/L)`, `v = U sin(2πx/L) cos(2πy/L)`
+    /// (in the x–y plane; `w = 0` in 3D), a steady solution of the Euler equations that decays
+    /// viscously as `exp(−8π²νt/L²)`.
+    TaylorGreen,
+}
+
+/// `velocity_field = { kind = ..., ... }` of a fluid block.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VelocityField {
+    /// Which field.
+    pub kind: FieldKind,
+    /// Rigid rotation: angular velocity `ω` (rad per unit time, counter-clockwise).
+    pub omega: Option<f64>,
+    /// Rigid rotation: centre (default: the block's centre).
+    pub center: Option<Vec<f64>>,
+    /// Taylor–Green: amplitude `U` (default 1).
+    pub amplitude: Option<f64>,
+    /// Taylor–Green: wavelength `L` (default 1).
+    pub wavelength: Option<f64>,
+}
+
+/// A `[[fluid]]` block: a shape filled with particles on the scene's lattice, with an initial
+/// velocity and (optionally) hydrostatic pressure. Points of later blocks that an earlier block
+/// already holds, and points in wall material, are left out.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FluidBlock {
+    /// Shape.
+    pub shape: FluidShape,
+    /// Box: lower corner.
+    pub min: Option<Vec<f64>>,
+    /// Box: upper corner.
+    pub max: Option<Vec<f64>>,
+    /// Ellipse, circle: centre.
+    pub center: Option<Vec<f64>>,
+    /// Ellipse: semi-axes along x, y (, z).
+    pub semi_axes: Option<Vec<f64>>,
+    /// Circle: radius.
+    pub radius: Option<f64>,
+    /// Polygon: vertices `[[x, y], ...]` in order (2D).
+    pub vertices: Option<Vec<[f64; 2]>>,
+    /// Lattice placement. Default `staggered`.
+    #[serde(default)]
+    pub lattice: LatticeKind,
+    /// Constant initial velocity (added to the other two). Default 0.
+    pub velocity: Option<Vec<f64>>,
+    /// Linear initial velocity `u = G (x − c)` with `c` the block's centre (`G` row by row).
+    pub velocity_gradient: Option<Vec<Vec<f64>>>,
+    /// A named initial velocity field.
+    pub velocity_field: Option<VelocityField>,
+    /// Initial pressure `ρ₀ g·(x − x_top)`, hydrostatic under the scene's gravity, with
+    /// `x_top` the block's highest point against gravity (its free surface). Needs gravity.
+    #[serde(default)]
+    pub hydrostatic: bool,
+    /// Random displacement of each particle by up to this fraction of `dx` per axis (a
+    /// disordered start; seeded, so runs repeat). Default 0.
+    pub jitter: Option<f64>,
+}
+
+/// What a `[[wall]]` box does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WallKind {
+    /// The fluid stays inside; wall particles lie outside the closed faces. Default.
+    #[default]
+    Container,
+    /// The fluid stays outside; wall particles fill the box.
+    Solid,
+}
+
+/// The shape of a wall (boxes only, for now).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WallShape {
+    /// Axis-aligned box.
+    #[default]
+    Box,
+}
+
+/// A `[[wall]]` block: fixed dummy wall particles on the scene's lattice (Adami et al. 2012),
+/// as many layers as the kernel support needs, for a container (open faces allowed) or a solid
+/// obstacle. `velocity` and `face_velocity` are velocities of the wall's surface (a lid, a
+/// belt): the wall particles carry them into the no-slip and wall conditions but do not move.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallBlock {
+    /// Shape (`box`).
+    #[serde(default)]
+    pub shape: WallShape,
+    /// Container (default) or solid.
+    #[serde(default)]
+    pub kind: WallKind,
+    /// Lower corner of the box.
+    pub min: Vec<f64>,
+    /// Upper corner.
+    pub max: Vec<f64>,
+    /// Container faces without a wall: `"-x"`, `"+x"`, `"-y"`, `"+y"`, `"-z"`, `"+z"`.
+    #[serde(default)]
+    pub open: Vec<String>,
+    /// Layers of wall particles. Default: enough to fill the kernel support.
+    pub layers: Option<usize>,
+    /// Surface velocity of the whole wall. Default 0.
+    pub velocity: Option<Vec<f64>>,
+    /// Surface velocity of single container faces, e.g. `{ "+y" = [1.0, 0.0] }` (a lid: the wall
+    /// particles beyond that face within the box's extent along the other axes).
+    #[serde(default)]
+    pub face_velocity: BTreeMap<String, Vec<f64>>,
+}
+
+/// `[domain]`: the periodic box.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DomainSpec {
+    /// Lower corner of the periodic box.
+    pub min: Option<Vec<f64>>,
+    /// Upper corner.
+    pub max: Option<Vec<f64>>,
+    /// Periodic axes: any of `"x"`, `"y"`, `"z"`.
+    #[serde(default)]
+    pub periodic: Vec<String>,
+}
+
+/// A per-step diagnostic a scene can ask for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DiagnosticKind {
+    /// `det F` of each step (min, mean, max; and per particle in frames).
+    DetF,
+    /// `max |∇·u|` after each projection.
+    DivU,
+}
+
+/// `[output]`: what a run records and writes.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Per-step diagnostics (each costs a pass). Default: none.
+    #[serde(default)]
+    pub diagnostics: Vec<DiagnosticKind>,
+    /// Steps between records. Default: the case's (every step for the drops, ~400 records per
+    /// run for the cavity and flows).
+    pub sample_every: Option<usize>,
+    /// Times at which a record and the case's snapshot tables are written.
+    #[serde(default)]
+    pub snapshots: Vec<f64>,
+    /// Records between particle frames (MCAP, VTK). Default: the case's.
+    pub frame_every: Option<usize>,
+    /// Write ParaView files (`.vtp` per frame and a `.pvd` index). Default false.
+    #[serde(default)]
+    pub vtk: bool,
+}
+
+/// `[limits]`: what a scene may allocate and how a blow-up is recognised.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LimitsSpec {
+    /// Largest particle count (fluid and walls) the scene may create. Default 4 000 000.
+    pub max_particles: Option<usize>,
+    /// Largest estimated memory of one run, in GiB. Default 8.
+    pub max_memory_gb: Option<f64>,
+    /// Largest number of steps. Default 10 000 000.
+    pub max_steps: Option<usize>,
+    /// Largest displacement of a particle in one step, in smoothing lengths. Default 1.
+    pub max_displacement: Option<f64>,
+}
+
+impl LimitsSpec {
+    /// The particle limit (default 4 000 000).
+    pub fn particles(&self) -> usize {
+        self.max_particles.unwrap_or(4_000_000)
+    }
+    /// The memory limit in bytes (default 8 GiB).
+    pub fn memory_bytes(&self) -> f64 {
+        self.max_memory_gb.unwrap_or(8.0) * (1u64 << 30) as f64
+    }
+    /// The step limit (default 10 000 000).
+    pub fn steps(&self) -> usize {
+        self.max_steps.unwrap_or(10_000_000)
+    }
+}
+
+/// A `[[check]]`: a pass criterion on a named result of the run, declared before the run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckSpec {
+    /// The result checked (see the case's results, e.g. `max_wall_penetrations`,
+    /// `front_error_max`, `reached_t`).
+    pub quantity: String,
+    /// Passes when the value is at most this.
+    pub max: Option<f64>,
+    /// Passes when the value is at least this.
+    pub min: Option<f64>,
+    /// Only for these schemes (default: every scheme).
+    #[serde(default)]
+    pub schemes: Vec<sph_integrators::SchemeKind>,
+    /// Where the criterion comes from (shown in reports).
+    pub source: Option<String>,
+}
+
+/// Axis index of `"x"`, `"y"`, `"z"`.
+pub fn axis_index(name: &str) -> Option<usize> {
+    match name {
+        "x" => Some(0),
+        "y" => Some(1),
+        "z" => Some(2),
+        _ => None,
+    }
+}
+
+/// `(axis, upper)` of a face name `"-x"`, `"+y"`, ...
+pub fn face_index(name: &str) -> Option<(usize, bool)> {
+    let (sign, axis) = name.split_at(name.len().min(1));
+    let upper = match sign {
+        "+" => true,
+        "-" => false,
+        _ => return None,
+    };
+    Some((axis_index(axis)?, upper))
+}

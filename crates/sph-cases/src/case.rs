@@ -1,0 +1,147 @@
+//! The [`Case`] abstraction: what a case supplies to the one run loop ([`crate::run`]).
+//!
+//! A case builds the initial state ([`Case::setup`]), names the columns it adds to every record
+//! ([`Case::columns`]) and fills them ([`Case::observe`]), may hand out tables (snapshots,
+//! profiles) and named results at the end ([`Case::finish`]), and declares its built-in checks
+//! ([`Case::checks`]). Everything else — stepping, sampling, the common columns (time, energy,
+//! penetrations, solver statistics, per-pass timings), checkpoints, resume, blow-up handling and
+//! the checks a scene declares in `[[check]]` — is the run loop's, once for every case. Cases
+//! are registered by [`CaseKind`](crate::CaseKind) in [`crate::registry`].
+
+use crate::{CaseError, Check};
+use sph_core::{Dim, ParticleSet};
+use sph_integrators::{
+    Integrator, Scheme, SchemeKind, SimConfig, Simulation, StepError, StepReport, Walls,
+};
+use std::collections::BTreeMap;
+
+/// A column of a run's records.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Column {
+    /// Name (`snake_case`), the CSV header and the MCAP metrics key.
+    pub name: String,
+    /// Unit, or `""` for dimensionless and counts.
+    pub unit: &'static str,
+    /// What it holds.
+    pub about: &'static str,
+}
+
+impl Column {
+    /// A column.
+    pub fn new(name: impl Into<String>, unit: &'static str, about: &'static str) -> Self {
+        Self {
+            name: name.into(),
+            unit,
+            about,
+        }
+    }
+}
+
+/// A numeric table a case hands out (a density-error field, centreline profiles).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    /// Name, part of the output file name (`density_t10.000`, `u_profile`).
+    pub name: String,
+    /// Column names.
+    pub columns: Vec<String>,
+    /// Rows of values (NaN where a value does not exist).
+    pub rows: Vec<Vec<f64>>,
+}
+
+/// Named scalar results of a run (`reached_t`, `max_wall_penetrations`, `front_error_max`, ...):
+/// what checks and reports read.
+pub type Results = BTreeMap<String, f64>;
+
+/// The initial state of a run.
+pub struct Setup<D: Dim> {
+    /// Fluid particles, then wall particles.
+    pub particles: ParticleSet<D>,
+    /// Numerical configuration.
+    pub config: SimConfig,
+    /// The walls, if any.
+    pub walls: Option<Walls<D>>,
+    /// Lattice sites of fluid blocks left out because they lie in wall material.
+    pub carved: usize,
+}
+
+impl<D: Dim> Setup<D> {
+    /// The simulation of this state.
+    pub fn simulation(self) -> Result<Simulation<D>, CaseError> {
+        match self.walls {
+            Some(w) => Simulation::with_walls(self.particles, self.config, w)
+                .map_err(|e| CaseError::Walls(e.to_string())),
+            None => Ok(Simulation::new(self.particles, self.config)?),
+        }
+    }
+}
+
+/// What a case hands out at the end of a run.
+#[derive(Default)]
+pub struct Finish {
+    /// Tables (written as `<run>_<table>.csv`).
+    pub tables: Vec<Table>,
+    /// Named results.
+    pub results: Results,
+}
+
+/// What a case supplies to the run loop (see the module docs). One value per scheme run.
+pub trait Case<D: Dim>: Send {
+    /// The initial state.
+    fn setup(&self) -> Result<Setup<D>, CaseError>;
+
+    /// The columns this case adds to every record.
+    fn columns(&self) -> Vec<Column>;
+
+    /// Steps between records when the scene does not say (`steps`: the run's step count).
+    /// Default: about 400 records per run.
+    fn sample_every(&self, steps: usize) -> usize {
+        (steps / 400).max(1)
+    }
+
+    /// Records between particle frames when the scene does not say. Default 10.
+    fn frame_every(&self) -> usize {
+        10
+    }
+
+    /// Called once with the initial state, before a resumed run restores its checkpoint.
+    fn start(&mut self, _sim: &Simulation<D>) -> Result<(), CaseError> {
+        Ok(())
+    }
+
+    /// Advances the simulation by one step. Default: the scheme's step. (The Section 3 case
+    /// advects its particles with a prescribed field instead.)
+    fn advance(
+        &mut self,
+        sim: &mut Simulation<D>,
+        scheme: &mut Scheme,
+        dt: f64,
+    ) -> Result<StepReport, StepError> {
+        scheme.step(sim, dt)
+    }
+
+    /// Appends this case's column values for the current state (`report`: the step just taken,
+    /// `None` for the initial record; `short`: a final step shorter than `dt`).
+    fn observe(
+        &mut self,
+        sim: &Simulation<D>,
+        report: Option<&StepReport>,
+        short: bool,
+        out: &mut Vec<f64>,
+    ) -> Result<(), CaseError>;
+
+    /// Tables at a snapshot time of the scene (`[output] snapshots`). Default none.
+    fn snapshot(&mut self, _sim: &Simulation<D>) -> Result<Vec<Table>, CaseError> {
+        Ok(Vec::new())
+    }
+
+    /// Tables and results at the end of the run.
+    fn finish(&mut self, _sim: &Simulation<D>) -> Result<Finish, CaseError> {
+        Ok(Finish::default())
+    }
+
+    /// The case's built-in checks of one scheme's run, from the results (the loop's and the
+    /// case's). `label` prefixes the check names.
+    fn checks(&self, _scheme: SchemeKind, _label: &str, _results: &Results) -> Vec<Check> {
+        Vec::new()
+    }
+}

@@ -1,0 +1,458 @@
+//! The one run loop of every case: stepping, sampling, the common record columns, checkpoints,
+//! resume, blow-up handling, and the checks of the scene's `[[check]]` tables.
+//!
+//! [`run_scheme`] runs one scheme of a scene with a [`Case`]; everything it produces reaches the
+//! caller through a [`RunSink`] as soon as it exists (records with the particle state, tables,
+//! checkpoints), so a run that fails or is killed loses nothing already handed out. The library
+//! does no I/O: the sink writes files.
+
+use crate::case::{Case, Column, Results, Table};
+use crate::{CaseError, Check, Scene};
+use sph_core::{Dim, VectorOps};
+use sph_integrators::{
+    Checkpoint, Frame, Phase, PhaseTimes, Scheme, SchemeKind, Simulation, StepError, StepReport,
+};
+use std::time::Instant;
+
+/// Receives what a run produces, as it is produced.
+pub trait RunSink {
+    /// The record columns, once before the first record.
+    fn begin(&mut self, columns: &[Column]) -> std::io::Result<()>;
+    /// One record (one value per column, NaN where there is none) with the particle state;
+    /// `frame_due` says whether the scene's frame cadence asks for the particle frame.
+    fn record(&mut self, values: &[f64], frame: &dyn Frame, frame_due: bool)
+    -> std::io::Result<()>;
+    /// A table (snapshot field, profiles).
+    fn table(&mut self, table: &Table) -> std::io::Result<()>;
+    /// A checkpoint to write (every `checkpoint_every` steps and after the last step).
+    fn checkpoint(&mut self, checkpoint: &Checkpoint) -> std::io::Result<()>;
+    /// Called after every step (progress display). Default: nothing.
+    fn progress(&mut self, _step: usize, _t: f64, _t_end: f64) {}
+}
+
+/// How a run starts and saves its state.
+#[derive(Default)]
+pub struct RunControl<'a> {
+    /// Continue from this checkpoint (of the same scene and scheme) instead of t = 0. The
+    /// initial record is not observed again.
+    pub resume: Option<&'a Checkpoint>,
+    /// Hand a checkpoint to the sink every this many steps (and after the last step).
+    pub checkpoint_every: Option<usize>,
+    /// Metadata stored in the checkpoints (the caller's record of the scene).
+    pub checkpoint_meta: String,
+}
+
+/// What one scheme's run produced (besides what went to the sink).
+#[derive(Debug)]
+pub struct SchemeRun {
+    /// The scheme.
+    pub scheme: SchemeKind,
+    /// Fluid and wall particles.
+    pub particles: (usize, usize),
+    /// Fluid lattice sites left out because they lie in wall material.
+    pub carved: usize,
+    /// Steps taken by this run (a resumed run starts at its checkpoint's step).
+    pub steps_taken: usize,
+    /// The step count at the end.
+    pub step: usize,
+    /// Time at the end.
+    pub t: f64,
+    /// Wall time of the run in seconds.
+    pub wall_s: f64,
+    /// Time per pass, summed over the steps taken.
+    pub phases: PhaseTimes,
+    /// Named results (the loop's and the case's).
+    pub results: Results,
+    /// Checks: the case's built-in ones and the scene's `[[check]]`s (and "run completes").
+    pub checks: Vec<Check>,
+    /// The step that failed, if one did (the run stopped there; all before it was handed out).
+    pub failure: Option<StepError>,
+}
+
+/// The columns every record starts with, before the case's own.
+pub fn common_columns() -> Vec<Column> {
+    let mut c = vec![
+        Column::new("step", "", "steps completed"),
+        Column::new("t", "time", "simulated time"),
+        Column::new("dt", "time", "size of the last step"),
+        Column::new("kinetic_energy", "energy", "½ Σ m u² over the fluid"),
+        Column::new("max_speed", "velocity", "largest fluid speed"),
+        Column::new("wall_penetrations", "", "fluid particles in wall material"),
+        Column::new(
+            "wall_intrusion",
+            "length",
+            "depth of the deepest fluid particle in wall material",
+        ),
+        Column::new(
+            "free_surface_particles",
+            "",
+            "Dirichlet (free-surface) particles of the last projection",
+        ),
+        Column::new(
+            "solver_iterations",
+            "",
+            "pressure-solver iterations of the last step",
+        ),
+        Column::new(
+            "solver_residual",
+            "",
+            "true relative residual of the last solve",
+        ),
+        Column::new(
+            "max_div_u",
+            "1/time",
+            "max |∇·u| after the last projection (diagnostic div_u)",
+        ),
+        Column::new(
+            "det_f_min",
+            "",
+            "min det F of the last step (diagnostic det_f)",
+        ),
+        Column::new(
+            "det_f_mean",
+            "",
+            "mean det F of the last step (diagnostic det_f)",
+        ),
+        Column::new(
+            "det_f_max",
+            "",
+            "max det F of the last step (diagnostic det_f)",
+        ),
+        Column::new(
+            "max_displacement",
+            "h",
+            "largest fluid displacement of the last step, in smoothing lengths",
+        ),
+        Column::new("step_seconds", "s", "wall time of the last step"),
+    ];
+    for p in Phase::ALL {
+        c.push(Column::new(
+            format!("seconds_{}", p.name()),
+            "s",
+            "wall time of this pass in the last step (empty: the pass did not run)",
+        ));
+    }
+    c
+}
+
+/// The names of the results every run reports (cases add their own).
+pub const COMMON_RESULTS: [&str; 10] = [
+    "reached_t",
+    "steps",
+    "max_wall_penetrations",
+    "max_wall_intrusion_dx",
+    "max_speed",
+    "max_displacement",
+    "kinetic_energy",
+    "solver_iterations_mean",
+    "wall_seconds",
+    "completed",
+];
+
+fn common_values<D: Dim>(sim: &Simulation<D>, report: Option<&StepReport>, out: &mut Vec<f64>) {
+    let p = &sim.particles;
+    let nf = sim.fluid_len();
+    let ke = 0.5
+        * p.masses[..nf]
+            .iter()
+            .zip(&p.velocities[..nf])
+            .map(|(m, u)| m * u.length_squared())
+            .sum::<f64>();
+    let vmax = p.velocities[..nf]
+        .iter()
+        .map(|u| u.length())
+        .fold(0.0, f64::max);
+    let nan = f64::NAN;
+    let r = |f: &dyn Fn(&StepReport) -> f64| report.map_or(nan, f);
+    let det = report.and_then(|r| r.det_f);
+    out.extend_from_slice(&[
+        sim.step as f64,
+        sim.t,
+        r(&|r| r.dt),
+        ke,
+        vmax,
+        sim.wall_penetrations() as f64,
+        sim.wall_intrusion(),
+        r(&|r| r.free_surface_particles as f64),
+        r(&|r| r.solve.iterations as f64),
+        r(&|r| r.solve.rel_residual),
+        report.and_then(|r| r.max_div_u).unwrap_or(nan),
+        det.map_or(nan, |d| d.min),
+        det.map_or(nan, |d| d.mean),
+        det.map_or(nan, |d| d.max),
+        r(&|r| r.max_displacement),
+        r(&|r| r.seconds),
+    ]);
+    for ph in Phase::ALL {
+        out.push(report.map_or(nan, |r| {
+            if r.phases.ran(ph) {
+                r.phases.seconds(ph)
+            } else {
+                nan
+            }
+        }));
+    }
+}
+
+/// Running maxima and sums over a run's steps, for the results.
+#[derive(Default)]
+struct Tally {
+    penetrations: usize,
+    intrusion: f64,
+    speed: f64,
+    displacement: f64,
+    iterations: f64,
+    steps: usize,
+    phases: PhaseTimes,
+}
+
+/// Runs `scheme` of `scene` with `case` to `scene.t_end`, handing records, tables and
+/// checkpoints to `sink` as they are produced. A failed step ends the run with
+/// [`SchemeRun::failure`] set (the particles stay as before that step; everything up to it was
+/// handed out); setup errors, an unusable checkpoint and sink errors are `Err`.
+pub fn run_scheme<D: Dim>(
+    scene: &Scene,
+    scheme: SchemeKind,
+    mut case: Box<dyn Case<D>>,
+    control: RunControl<'_>,
+    sink: &mut dyn RunSink,
+) -> Result<SchemeRun, CaseError> {
+    let clock = Instant::now();
+    let setup = case.setup()?;
+    let carved = setup.carved;
+    let mut sim = setup.simulation()?;
+    let counts = (sim.fluid_len(), sim.particles.len() - sim.fluid_len());
+    let (full, rest) = scene.steps();
+    let last = full + usize::from(rest.is_some());
+    let every = scene
+        .output
+        .sample_every
+        .or(scene.cavity.as_ref().and_then(|c| c.sample_every))
+        .unwrap_or_else(|| case.sample_every(last));
+    let frame_every = scene
+        .output
+        .frame_every
+        .unwrap_or_else(|| case.frame_every());
+    let mut snapshots: Vec<f64> = scene
+        .output
+        .snapshots
+        .iter()
+        .chain(scene.cavity.iter().flat_map(|c| c.snapshots.iter()))
+        .copied()
+        .collect();
+    snapshots.sort_by(f64::total_cmp);
+    snapshots.dedup();
+    let mut pending = snapshots.into_iter().peekable();
+    let due = |t: f64| t + 1e-9 * scene.dt;
+    let mut columns = common_columns();
+    columns.extend(case.columns());
+    sink.begin(&columns)?;
+    let mut values = Vec::with_capacity(columns.len());
+    let mut records = 0usize;
+    let mut emit = |case: &mut Box<dyn Case<D>>,
+                    sim: &Simulation<D>,
+                    report: Option<&StepReport>,
+                    short: bool,
+                    sink: &mut dyn RunSink|
+     -> Result<(), CaseError> {
+        values.clear();
+        common_values(sim, report, &mut values);
+        case.observe(sim, report, short, &mut values)?;
+        debug_assert_eq!(values.len(), columns.len());
+        sink.record(&values, sim, records.is_multiple_of(frame_every))?;
+        records += 1;
+        Ok(())
+    };
+    case.start(&sim)?;
+    if let Some(c) = control.resume {
+        sim.restore(c)
+            .map_err(|e| CaseError::Resume(e.to_string()))?;
+        let expected = sim.step as f64 * scene.dt;
+        if sim.step > last || (sim.t - expected).abs() > 1e-9 * expected.max(scene.dt) {
+            return Err(CaseError::Resume(format!(
+                "the checkpoint is at step {} and t = {}, which does not fit this scene (dt = {}, \
+                 {last} steps)",
+                sim.step, sim.t, scene.dt
+            )));
+        }
+        while pending.peek().is_some_and(|t| *t <= due(sim.t)) {
+            pending.next();
+        }
+    } else {
+        emit(&mut case, &sim, None, false, sink)?;
+        while pending.peek().is_some_and(|t| *t <= 0.0) {
+            pending.next();
+            for t in case.snapshot(&sim)? {
+                sink.table(&t)?;
+            }
+        }
+    }
+    let mut integrator = Scheme::new(scheme);
+    let mut tally = Tally {
+        penetrations: sim.wall_penetrations(),
+        intrusion: sim.wall_intrusion(),
+        ..Tally::default()
+    };
+    let mut failure = None;
+    for k in sim.step + 1..=last {
+        let short = k == last && rest.is_some();
+        let dt = if short {
+            rest.expect("short step")
+        } else {
+            scene.dt
+        };
+        let report = match case.advance(&mut sim, &mut integrator, dt) {
+            Ok(r) => r,
+            Err(e) => {
+                failure = Some(e);
+                break;
+            }
+        };
+        tally.steps += 1;
+        tally.displacement = tally.displacement.max(report.max_displacement);
+        tally.iterations += report.solve.iterations as f64;
+        tally.phases.accumulate(&report.phases);
+        let snap = pending.peek().is_some_and(|t| *t <= due(sim.t));
+        if k % every == 0 || k == last || snap || report.wall_penetrations > 0 {
+            emit(&mut case, &sim, Some(&report), short, sink)?;
+            tally.penetrations = tally.penetrations.max(sim.wall_penetrations());
+            tally.intrusion = tally.intrusion.max(sim.wall_intrusion());
+            tally.speed = tally.speed.max(sim.max_speed());
+            while pending.peek().is_some_and(|t| *t <= due(sim.t)) {
+                pending.next();
+                for t in case.snapshot(&sim)? {
+                    sink.table(&t)?;
+                }
+            }
+        }
+        if let Some(n) = control.checkpoint_every
+            && (k % n.max(1) == 0 || k == last)
+        {
+            sink.checkpoint(&sim.checkpoint(&control.checkpoint_meta))?;
+        }
+        sink.progress(k, sim.t, scene.t_end);
+    }
+    let finish = case.finish(&sim)?;
+    for t in &finish.tables {
+        sink.table(t)?;
+    }
+    let mut results = finish.results;
+    for (name, value) in [
+        ("reached_t", sim.t),
+        ("steps", sim.step as f64),
+        ("max_wall_penetrations", tally.penetrations as f64),
+        ("max_wall_intrusion_dx", tally.intrusion / scene.dx),
+        ("max_speed", tally.speed.max(sim.max_speed())),
+        ("max_displacement", tally.displacement),
+        ("kinetic_energy", {
+            let p = &sim.particles;
+            0.5 * p.masses[..counts.0]
+                .iter()
+                .zip(&p.velocities[..counts.0])
+                .map(|(m, u)| m * u.length_squared())
+                .sum::<f64>()
+        }),
+        (
+            "solver_iterations_mean",
+            tally.iterations / tally.steps.max(1) as f64,
+        ),
+        ("wall_seconds", clock.elapsed().as_secs_f64()),
+        ("completed", if failure.is_none() { 1.0 } else { 0.0 }),
+    ] {
+        results.insert(name.to_string(), value);
+    }
+    let label = format!("{} t={:.4}", scheme.name(), sim.t);
+    let mut checks = case.checks(scheme, &label, &results);
+    checks.extend(scene_checks(scene, scheme, &label, &results));
+    if let Some(e) = &failure {
+        checks.push(Check::new(
+            scene.case.name(),
+            format!("{} run completes", scheme.name()),
+            0.0,
+            1.0,
+            0.0,
+            e.to_string(),
+        ));
+    }
+    Ok(SchemeRun {
+        scheme,
+        particles: counts,
+        carved,
+        steps_taken: tally.steps,
+        step: sim.step,
+        t: sim.t,
+        wall_s: clock.elapsed().as_secs_f64(),
+        phases: tally.phases,
+        results,
+        checks,
+        failure,
+    })
+}
+
+/// The checks a scene declares in `[[check]]`, on one scheme's results.
+fn scene_checks(scene: &Scene, scheme: SchemeKind, label: &str, results: &Results) -> Vec<Check> {
+    scene
+        .check
+        .iter()
+        .filter(|c| c.schemes.is_empty() || c.schemes.contains(&scheme))
+        .flat_map(|c| {
+            let value = results.get(&c.quantity).copied().unwrap_or(f64::NAN);
+            let source = c.source.clone().unwrap_or_else(|| "scene [[check]]".into());
+            let name = format!("{label} {}", c.quantity);
+            c.max
+                .map(|m| Check::at_most(scene.case.name(), name.clone(), value, m, source.clone()))
+                .into_iter()
+                .chain(c.min.map(|m| {
+                    Check::at_least(scene.case.name(), name.clone(), value, m, source.clone())
+                }))
+        })
+        .collect()
+}
+
+/// A sink that keeps everything in memory: records by column name, tables, checkpoints. For
+/// tests and for programs that post-process a run themselves.
+#[derive(Default)]
+pub struct MemorySink {
+    /// Column names.
+    pub columns: Vec<String>,
+    /// Records, one value per column.
+    pub records: Vec<Vec<f64>>,
+    /// Tables in the order they were handed out.
+    pub tables: Vec<Table>,
+    /// Checkpoints in the order they were handed out.
+    pub checkpoints: Vec<Checkpoint>,
+}
+
+impl MemorySink {
+    /// The values of column `name` over the records (empty if there is no such column).
+    pub fn column(&self, name: &str) -> Vec<f64> {
+        match self.columns.iter().position(|c| c == name) {
+            Some(k) => self.records.iter().map(|r| r[k]).collect(),
+            None => Vec::new(),
+        }
+    }
+
+    /// The value of column `name` in the last record.
+    pub fn last(&self, name: &str) -> f64 {
+        self.column(name).last().copied().unwrap_or(f64::NAN)
+    }
+}
+
+impl RunSink for MemorySink {
+    fn begin(&mut self, columns: &[Column]) -> std::io::Result<()> {
+        self.columns = columns.iter().map(|c| c.name.clone()).collect();
+        Ok(())
+    }
+    fn record(&mut self, values: &[f64], _: &dyn Frame, _: bool) -> std::io::Result<()> {
+        self.records.push(values.to_vec());
+        Ok(())
+    }
+    fn table(&mut self, table: &Table) -> std::io::Result<()> {
+        self.tables.push(table.clone());
+        Ok(())
+    }
+    fn checkpoint(&mut self, checkpoint: &Checkpoint) -> std::io::Result<()> {
+        self.checkpoints.push(checkpoint.clone());
+        Ok(())
+    }
+}

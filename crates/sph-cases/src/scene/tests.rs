@@ -1,0 +1,285 @@
+use super::*;
+
+const GOOD: &str = r#"
+case = "elliptical_drop"
+dim = 2
+dx = 0.025
+dt = 2e-4
+t_end = 0.003
+schemes = ["euler", "dg"]
+[free_surface]
+div_r_threshold = 1.5
+"#;
+
+#[test]
+fn parses_with_defaults() {
+    let s = Scene::parse("t", GOOD).unwrap();
+    assert_eq!(s.h_over_dx, 1.3);
+    assert_eq!(s.kernel, KernelKind::QuinticSpline);
+    assert_eq!(s.schemes, vec![SchemeKind::Euler, SchemeKind::Dg]);
+    assert_eq!(s.quick(), s);
+}
+
+#[test]
+fn unknown_key_is_an_error_naming_it() {
+    let e = Scene::parse("t", &format!("{GOOD}\nviscosity = 1.0"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("viscosity"), "{e}");
+    let e = Scene::parse("t", &GOOD.replace("div_r_threshold", "threshold"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("threshold"), "{e}");
+    let e = Scene::parse("t", &GOOD.replace("\"dg\"", "\"dgx\""))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("dgx"), "{e}");
+}
+
+#[test]
+fn bad_values_name_the_key() {
+    for (from, to, key) in [
+        ("dx = 0.025", "dx = -0.025", "`dx`"),
+        ("dt = 2e-4", "dt = 0.0", "`dt`"),
+        ("dim = 2", "dim = 3", "`dim`"),
+        (
+            "div_r_threshold = 1.5",
+            "div_r_threshold = 2.5",
+            "div_r_threshold",
+        ),
+        ("schemes = [\"euler\", \"dg\"]", "schemes = []", "`schemes`"),
+    ] {
+        let e = Scene::parse("scene.toml", &GOOD.replace(from, to))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key) && e.contains("scene.toml"), "{from} -> {e}");
+    }
+    let e = Scene::parse("t", "case = \"elliptical_drop\"\ndim = ")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("line"), "{e}");
+}
+
+const CAVITY: &str = r#"
+case = "lid_driven_cavity"
+dim = 2
+dx = 0.05
+dt = 0.01
+t_end = 1.0
+schemes = ["dg"]
+[cavity]
+reynolds = 100
+[effects]
+shifting = { coefficient = 2.0 }
+"#;
+
+#[test]
+fn cavity_scene_declares_its_effects() {
+    let s = Scene::parse("c", CAVITY).unwrap();
+    let c = s.sim_config();
+    assert!(c.effects.shifting.is_some() && c.effects.gravity.is_none());
+    // Viscosity comes from the Reynolds number (added by the case), not from the scene.
+    assert!(c.effects.viscosity.is_none());
+    assert!(Scene::parse("d", GOOD).unwrap().sim_config().effects == Default::default());
+    assert!(Scene::parse("c", &CAVITY.replace("dim = 2", "dim = 3")).is_ok());
+}
+
+#[test]
+fn bad_cavity_values_name_the_key() {
+    for (from, to, key) in [
+        ("reynolds = 100", "reynolds = -1", "cavity.reynolds"),
+        ("dx = 0.05", "dx = 0.03", "`dx`"),
+        (
+            "coefficient = 2.0",
+            "coefficient = 0.0",
+            "effects.shifting.coefficient",
+        ),
+        (
+            "[cavity]",
+            "[free_surface]\ndiv_r_threshold = 1.5\n[cavity]",
+            "free_surface",
+        ),
+        (
+            "[effects]",
+            "[effects]\nviscosity = { nu = 0.01 }",
+            "effects.viscosity",
+        ),
+        ("dim = 2", "dim = 4", "`dim`"),
+    ] {
+        let e = Scene::parse("cav.toml", &CAVITY.replace(from, to))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key), "{from} -> {e}");
+    }
+    let e = Scene::parse("c", &CAVITY.replace("[cavity]\nreynolds = 100\n", ""))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cavity"), "{e}");
+    let e = Scene::parse("c", &format!("{CAVITY}\nlid = 2"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("lid"), "{e}");
+    let e = Scene::parse("d", &format!("{GOOD}\n[cavity]\nreynolds = 1"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("only valid"), "{e}");
+}
+
+/// A flow scene: a water column in an open tank, walls and a free surface together.
+pub(crate) const TANK: &str = r#"
+dim = 2
+dx = 0.05
+kernel = "wendland_c2"
+dt = 1e-3
+t_end = 0.01
+schemes = ["dg"]
+[[fluid]]
+shape = "box"
+min = [0.0, 0.0]
+max = [0.5, 1.0]
+hydrostatic = true
+[[wall]]
+min = [0.0, 0.0]
+max = [2.0, 1.5]
+open = ["+y"]
+[free_surface]
+div_r_threshold = 1.5
+[effects]
+gravity = [0.0, -9.81, 0.0]
+"#;
+
+#[test]
+fn flow_scenes_parse_and_bad_blocks_name_the_key() {
+    let s = Scene::parse("tank", TANK).unwrap();
+    assert_eq!(s.case, CaseKind::Flow);
+    assert_eq!(s.fluid.len(), 1);
+    for (from, to, key) in [
+        ("max = [0.5, 1.0]", "max = [0.5]", "fluid[0].max"),
+        ("max = [0.5, 1.0]", "max = [0.53, 1.0]", "fluid[0].max"),
+        ("open = [\"+y\"]", "open = [\"top\"]", "wall[0].open"),
+        ("open = [\"+y\"]", "open = [\"+z\"]", "wall[0].open"),
+        ("shape = \"box\"", "shape = \"circle\"", "fluid[0].center"),
+        (
+            "hydrostatic = true",
+            "hydrostatic = true\nradius = 1.0",
+            "fluid[0].radius",
+        ),
+        ("gravity = [0.0, -9.81, 0.0]", "", "fluid[0].hydrostatic"),
+    ] {
+        let e = Scene::parse("tank.toml", &TANK.replace(from, to))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key), "{from} -> {to}: {e}");
+    }
+    // Blocks belong to flow scenes only.
+    let e = Scene::parse(
+        "d",
+        &format!("{GOOD}\n[[wall]]\nmin = [0.0, 0.0]\nmax = [1.0, 1.0]"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("`wall`"), "{e}");
+}
+
+#[test]
+fn periodic_domains_are_checked() {
+    let tg = r#"
+dim = 2
+dx = 0.05
+kernel = "wendland_c2"
+dt = 1e-3
+t_end = 0.01
+schemes = ["dg"]
+[domain]
+min = [0.0, 0.0]
+max = [1.0, 1.0]
+periodic = ["x", "y"]
+[[fluid]]
+shape = "box"
+min = [0.0, 0.0]
+max = [1.0, 1.0]
+velocity_field = { kind = "taylor_green" }
+"#;
+    let s = Scene::parse("tg", tg).unwrap();
+    let p = s.periodic_axes().unwrap();
+    assert_eq!(p.axes, [true, true, false]);
+    for (from, to, key) in [
+        (
+            "periodic = [\"x\", \"y\"]",
+            "periodic = [\"w\"]",
+            "domain.periodic",
+        ),
+        (
+            "max = [1.0, 1.0]\nperiodic",
+            "max = [0.1, 1.0]\nperiodic",
+            "domain.max",
+        ),
+        (
+            "max = [1.0, 1.0]\nperiodic",
+            "max = [1.01, 1.0]\nperiodic",
+            "domain.max",
+        ),
+    ] {
+        let e = Scene::parse("tg.toml", &tg.replacen(from, to, 1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key), "{from} -> {to}: {e}");
+    }
+    // A closed wall across a periodic axis is refused.
+    let e = Scene::parse(
+        "tg.toml",
+        &format!("{tg}\n[[wall]]\nmin = [0.0, 0.0]\nmax = [1.0, 0.5]\nopen = [\"+y\"]"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("wall[0].open"), "{e}");
+}
+
+#[test]
+fn allocation_is_bounded_before_allocating() {
+    for (text, key) in [
+        (CAVITY.replace("dx = 0.05", "dx = 1e-4"), "`dx`"),
+        (CAVITY.replace("dx = 0.05", "dx = 1e-7"), "`dx`"),
+        (GOOD.replace("dx = 0.025", "dx = 1e-5"), "`dx`"),
+        (CAVITY.replace("dt = 0.01", "dt = 1e-12"), "`t_end`"),
+        (
+            CAVITY.replace("reynolds = 100", "reynolds = 100\nprobe_spacing = 1e-6"),
+            "`dx`",
+        ),
+        (format!("{CAVITY}\n[quick]\ndt = 1e-12"), "`t_end`"),
+        (format!("{CAVITY}\n[quick]\ndx = 0.03"), "`dx`"),
+    ] {
+        let e = Scene::parse("big.toml", &text).unwrap_err().to_string();
+        assert!(e.contains(key), "{e}");
+    }
+    let e = Scene::parse("big.toml", &CAVITY.replace("dx = 0.05", "dx = 1e-4"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("particles") && e.contains("max_particles"),
+        "{e}"
+    );
+    // Raising the limit is the scene's choice.
+    let raised = format!(
+        "{}\n[limits]\nmax_particles = 3000000\nmax_memory_gb = 64\n",
+        CAVITY.replace("dx = 0.05", "dx = 0.001")
+    );
+    assert!(Scene::parse("big.toml", &raised).is_ok());
+}
+
+#[test]
+fn resume_differences_name_the_physics_keys() {
+    let s = Scene::parse("c", CAVITY).unwrap();
+    let mut later = s.clone();
+    later.t_end = 40.0;
+    later.schemes = vec![SchemeKind::Euler];
+    later.cavity.as_mut().unwrap().snapshots = vec![5.0];
+    later.solver_tolerance = Some(1e-6);
+    assert!(later.resume_differences(&s).is_empty());
+    let mut finer = s.clone();
+    finer.dx = 0.025;
+    assert_eq!(finer.resume_differences(&s), vec!["dx".to_string()]);
+    let mut other = s.clone();
+    other.cavity.as_mut().unwrap().wall_condition = WallCondition::Reflection;
+    assert_eq!(other.resume_differences(&s), vec!["cavity".to_string()]);
+}
