@@ -26,7 +26,7 @@ fn bench_dim<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
             BenchmarkId::new(format!("divergence_renormalised/{}", D::NAME), n),
             |b| {
                 b.iter(|| {
-                    correction_matrices(&ctx, 1e-12, &mut l);
+                    correction_matrices(&ctx, 1e-12, f64::INFINITY, &mut l);
                     divergence(&ctx, &u, Some(&l), &mut div);
                     black_box(div[0])
                 })

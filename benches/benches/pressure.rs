@@ -40,8 +40,10 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
             BenchmarkId::new(format!("assemble_ppe/{}", D::NAME), n),
             |b| {
                 b.iter(|| {
-                    assemble_ppe(&ctx, &ones, &ones, &src, 1e-3, &dirichlet, &mut m, &mut rhs)
-                        .unwrap();
+                    assemble_ppe(
+                        &ctx, &ones, &ones, &src, 1e-3, &dirichlet, None, &mut m, &mut rhs,
+                    )
+                    .unwrap();
                     black_box(m.values[0])
                 })
             },
@@ -52,8 +54,10 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
         ] {
             group.bench_function(BenchmarkId::new(format!("{name}/{}", D::NAME), n), |b| {
                 b.iter(|| {
-                    assemble_dg(&ctx, &ones, &a, &src, 1e-3, h, &dirichlet, &mut m, &mut rhs)
-                        .unwrap();
+                    assemble_dg(
+                        &ctx, &ones, &a, &src, 1e-3, h, &dirichlet, None, &mut m, &mut rhs,
+                    )
+                    .unwrap();
                     black_box(m.values[0])
                 })
             });
@@ -85,7 +89,10 @@ fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     let mut m = CsrMatrix::default();
     let mut rhs = vec![0.0; n];
     let ones = vec![1.0; n];
-    assemble_ppe(&ctx, &vols, &ones, &src, 2e-4, &dirichlet, &mut m, &mut rhs).unwrap();
+    assemble_ppe(
+        &ctx, &vols, &ones, &src, 2e-4, &dirichlet, None, &mut m, &mut rhs,
+    )
+    .unwrap();
     let sys = CsrSystem {
         offsets: nl.offsets(),
         cols: nl.indices(),
@@ -118,7 +125,18 @@ fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     // (cavity) system, one dense border row and column.
     let mut closed = CsrMatrix::default();
     let none = vec![false; n];
-    assemble_ppe(&ctx, &vols, &ones, &src, 2e-4, &none, &mut closed, &mut rhs).unwrap();
+    assemble_ppe(
+        &ctx,
+        &vols,
+        &ones,
+        &src,
+        2e-4,
+        &none,
+        None,
+        &mut closed,
+        &mut rhs,
+    )
+    .unwrap();
     // A right-hand side with a smooth solution (the constant source above is almost entirely
     // the incompatible part, which the gauge removes without iterating).
     let x_star: Vec<f64> = pts

@@ -157,8 +157,12 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
     if let Some(s) = scene.effects.shifting {
         effects.push(format!("shifting A = {}", s.coefficient));
     }
-    if let Some(f) = scene.free_surface {
-        effects.push(format!("free surface (∇·r < {})", f.div_r_threshold));
+    if let Some(f) = scene.sim_config().free_surface {
+        effects.push(format!(
+            "free surface (∇·r < {}{})",
+            f.div_r_threshold,
+            if f.scan { ", or an empty umbrella" } else { "" }
+        ));
     }
     if walls > 0 {
         effects.push(format!("walls ({walls} particles)"));

@@ -2,8 +2,8 @@
 //! run and validated like the scene itself.
 
 use crate::session::AppError;
+use sph_cases::blocks::FreeSurfaceSpec;
 use sph_cases::{Scene, ShiftingSpec, registry};
-use sph_integrators::FreeSurface;
 
 /// How much of a scene to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -105,8 +105,10 @@ impl Overrides {
             scene.solver_tolerance = Some(t);
         }
         if let Some(th) = self.div_r_threshold {
-            scene.free_surface = Some(FreeSurface {
-                div_r_threshold: th,
+            let scan = scene.free_surface.and_then(|f| f.scan);
+            scene.free_surface = Some(FreeSurfaceSpec {
+                div_r_threshold: Some(th),
+                scan,
             });
         }
         if let Some(h) = &self.dg_hessian {

@@ -48,7 +48,7 @@ fn dim_checks<D: Dim>(out: &mut Vec<Check>) {
     let g = D::Matrix::from_fn(|i, j| (i as f64 + 1.0) * if i == j { 1.0 } else { 0.5 });
     let u: Vec<D::Vector> = pts.iter().map(|x| g * *x).collect();
     let mut l = vec![D::Matrix::ZERO; pts.len()];
-    correction_matrices(&ctx, 1e-12, &mut l);
+    correction_matrices(&ctx, 1e-12, f64::INFINITY, &mut l);
     let mut div = vec![0.0; pts.len()];
     divergence(&ctx, &u, Some(&l), &mut div);
     let worst = div

@@ -227,6 +227,7 @@ impl<D: Dim> Shape<D> {
 struct WallSites<D: Dim> {
     positions: Vec<D::Vector>,
     mirrors: Vec<D::Vector>,
+    inward: Vec<D::Vector>,
     velocities: Vec<D::Vector>,
 }
 
@@ -259,7 +260,8 @@ fn wall_sites<D: Dim>(
     };
     for_each_site::<D>(start, end, dx, None, |x| {
         let inside_k = |k: usize| x.get(k) >= lo.get(k) && x.get(k) <= hi.get(k);
-        let mirror = match w.kind {
+        // The direction from the fluid into the wall along each flipped axis.
+        let inward = match w.kind {
             WallKind::Container => {
                 if (0..D::DIM).all(inside_k) {
                     return;
@@ -271,22 +273,38 @@ fn wall_sites<D: Dim>(
                 if beyond_open {
                     return;
                 }
-                D::Vector::from_fn(|k| if inside_k(k) { 1.0 } else { -1.0 })
+                D::Vector::from_fn(|k| {
+                    if x.get(k) < lo.get(k) {
+                        -1.0
+                    } else if x.get(k) > hi.get(k) {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                })
             }
             WallKind::Solid => {
-                let dist: Vec<f64> = (0..D::DIM)
-                    .map(|k| (x.get(k) - lo.get(k)).min(hi.get(k) - x.get(k)))
-                    .collect();
-                let near = dist.iter().cloned().fold(f64::INFINITY, f64::min);
+                let below: Vec<f64> = (0..D::DIM).map(|k| x.get(k) - lo.get(k)).collect();
+                let above: Vec<f64> = (0..D::DIM).map(|k| hi.get(k) - x.get(k)).collect();
+                let near = below
+                    .iter()
+                    .chain(&above)
+                    .cloned()
+                    .fold(f64::INFINITY, f64::min);
+                let tol = 1e-9 * dx;
                 D::Vector::from_fn(|k| {
-                    if dist[k] <= near + 1e-9 * dx {
+                    // Nearest face below: the fluid lies at x_k < lo_k, the wall towards +e_k.
+                    if below[k] <= near + tol {
+                        1.0
+                    } else if above[k] <= near + tol {
                         -1.0
                     } else {
-                        1.0
+                        0.0
                     }
                 })
             }
         };
+        let mirror = D::Vector::from_fn(|k| if inward.get(k) != 0.0 { -1.0 } else { 1.0 });
         let key: [i64; 3] = std::array::from_fn(|k| {
             if k < D::DIM {
                 (x.get(k) / dx - 0.5).round() as i64
@@ -309,6 +327,7 @@ fn wall_sites<D: Dim>(
         });
         out.positions.push(x);
         out.mirrors.push(mirror);
+        out.inward.push(inward);
         out.velocities.push(face.map_or(base, |(_, v)| *v));
     });
 }
@@ -427,6 +446,7 @@ pub fn build_blocks<D: Dim>(
         let mut sites = WallSites {
             positions: Vec::new(),
             mirrors: Vec::new(),
+            inward: Vec::new(),
             velocities: Vec::new(),
         };
         let mut taken = HashSet::new();
@@ -452,6 +472,8 @@ pub fn build_blocks<D: Dim>(
             first: fluid,
             velocity: sites.velocities,
             mirror: sites.mirrors,
+            inward: sites.inward,
+            separation: scene.free_surface.is_some(),
             geometry,
             thickness,
         })

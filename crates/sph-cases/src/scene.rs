@@ -28,8 +28,8 @@
 
 use crate::CaseError;
 use crate::blocks::{
-    CheckSpec, DiagnosticKind, DomainSpec, FluidBlock, FluidShape, LimitsSpec, OutputSpec,
-    WallBlock, WallKind, axis_index, face_index,
+    CheckSpec, DiagnosticKind, DomainSpec, FluidBlock, FluidShape, FreeSurfaceSpec, GradientChoice,
+    LimitsSpec, OutputSpec, PressureSpec, WallBlock, WallKind, axis_index, face_index,
 };
 use serde::{Deserialize, Serialize};
 use sph_integrators::{
@@ -222,7 +222,10 @@ pub struct Scene {
     /// Reference density `ρ₀`. Default 1.
     pub rho0: Option<f64>,
     /// Free surface; absent means none.
-    pub free_surface: Option<FreeSurface>,
+    pub free_surface: Option<FreeSurfaceSpec>,
+    /// The projection's discrete operators (defaults depend on the case).
+    #[serde(default)]
+    pub pressure: PressureSpec,
     /// Linear solver. Default BiCGSTAB + Jacobi.
     #[serde(default)]
     pub solver: SolverKind,
@@ -314,7 +317,11 @@ impl Scene {
             t_end,
             schemes: SchemeKind::ALL.to_vec(),
             rho0: None,
-            free_surface: Some(FreeSurface::default_for(case.dim())),
+            free_surface: Some(FreeSurfaceSpec {
+                div_r_threshold: Some(FreeSurface::default_for(case.dim()).div_r_threshold),
+                scan: None,
+            }),
+            pressure: PressureSpec::default(),
             solver: SolverKind::default(),
             solver_tolerance: None,
             dg_hessian: DgHessianChoice::default(),
@@ -367,7 +374,24 @@ impl Scene {
     pub fn sim_config(&self) -> SimConfig {
         let mut config = SimConfig::new(self.kernel, self.h());
         config.rho0 = self.rho0();
-        config.free_surface = self.free_surface;
+        let flow = self.case.uses_blocks();
+        config.free_surface = self.free_surface.map(|f| FreeSurface {
+            div_r_threshold: f
+                .div_r_threshold
+                .unwrap_or(FreeSurface::default_for(self.dim).div_r_threshold),
+            scan: f.scan.unwrap_or(flow),
+        });
+        let gradient = self.pressure.gradient.unwrap_or(if flow {
+            GradientChoice::Symmetric
+        } else {
+            GradientChoice::Difference
+        });
+        config.gradient = match gradient {
+            GradientChoice::Difference => sph_operators::GradientForm::Difference,
+            GradientChoice::Symmetric => sph_operators::GradientForm::Symmetric,
+        };
+        config.renormalise = self.pressure.renormalise.unwrap_or(!flow);
+        config.consistent_laplacian = self.pressure.consistent_laplacian.unwrap_or(false);
         config.solver = self.solver;
         if let Some(tol) = self.solver_tolerance {
             config.solve.rel_tolerance = tol;
@@ -706,17 +730,21 @@ impl Validator<'_> {
         if s.rho0.is_some_and(|r| !positive(r)) {
             return self.bad("rho0", "must be a positive number");
         }
-        if let Some(fs) = s.free_surface {
+        if let Some(th) = s.free_surface.and_then(|f| f.div_r_threshold) {
             let d = s.dim as f64;
-            if !(fs.div_r_threshold.is_finite()
-                && fs.div_r_threshold > 0.0
-                && fs.div_r_threshold < d)
-            {
+            if !(th.is_finite() && th > 0.0 && th < d) {
                 return self.bad(
                     "free_surface.div_r_threshold",
-                    format!("must be in (0, {d}), got {}", fs.div_r_threshold),
+                    format!("must be in (0, {d}), got {th}"),
                 );
             }
+        }
+        let c = s.sim_config();
+        if c.consistent_laplacian && !c.renormalise {
+            return self.bad(
+                "pressure.consistent_laplacian",
+                "needs renormalisation (pressure.renormalise = true)",
+            );
         }
         if s.solver_tolerance
             .is_some_and(|t| !(t.is_finite() && t > 0.0 && t < 1.0))

@@ -14,6 +14,11 @@ pub struct FreeSurface {
     /// the same fraction of the bulk value. Lower thresholds flag fewer particles (p = 0 sits
     /// closer to the true surface) but may miss surface particles at convex tips.
     pub div_r_threshold: f64,
+    /// Also flag a particle whose umbrella region outside it is empty (the scan of Marrone et
+    /// al. 2010, `sph_operators::free_surface_scan`): catches surface particles that a crowded
+    /// neighbourhood lifts above the `∇·r` threshold. Default `false` (the paper's `∇·r` alone).
+    #[serde(default)]
+    pub scan: bool,
 }
 
 impl FreeSurface {
@@ -21,6 +26,7 @@ impl FreeSurface {
     pub fn default_for(dim: usize) -> Self {
         Self {
             div_r_threshold: 0.75 * dim as f64,
+            scan: false,
         }
     }
 }
@@ -129,6 +135,11 @@ pub struct SimConfig {
     pub renormalise: bool,
     /// Hessian in the DG equation. Default `Eq25` (the paper's, coefficient corrected).
     pub dg_hessian: HessianForm,
+    /// Make the pressure equation's Laplacian (or DG Hessian) exact for linear fields on any
+    /// particle arrangement, with the renormalised gradient (Fatehi & Manzari 2011; see
+    /// `sph_pressure::assemble_ppe`). A hydrostatic pressure is then an exact discrete solution
+    /// of a disordered particle set; needs `renormalise`. Default `false` (the paper's operators).
+    pub consistent_laplacian: bool,
     /// Linear solver. Default BiCGSTAB + Jacobi.
     pub solver: SolverKind,
     /// Solver tolerances.
@@ -156,6 +167,7 @@ impl SimConfig {
             gradient: GradientForm::Difference,
             renormalise: true,
             dg_hessian: HessianForm::Eq25,
+            consistent_laplacian: false,
             solver: SolverKind::BicgstabJacobi,
             solve: SolveParams::default(),
             search: SearchKind::CellGrid,

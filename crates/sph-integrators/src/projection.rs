@@ -12,7 +12,7 @@ use sph_kernels::Kernel;
 use sph_neighbors::NeighborSearch;
 use sph_operators::{
     SphContext, correction_matrices, deformation_gradient, divergence, free_surface_indicator,
-    gradient, invariants, velocity_gradient,
+    free_surface_scan, gradient, invariants, velocity_gradient,
 };
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_wall_rows,
@@ -41,6 +41,11 @@ pub(crate) struct Projected {
 /// (bulk value ≈ 1; a flat free surface ≈ 0.5).
 const MIN_CORRECTION_DET: f64 = 1e-3;
 
+/// Largest amplification of a gradient by a renormalisation matrix (its largest entry) before
+/// falling back to `L = I`: a flat free surface has about 2, a spray particle with a few
+/// distant neighbours far more, and its corrected pressure gradient would fling it away.
+const MAX_CORRECTION_GAIN: f64 = 5.0;
+
 /// Builds the neighbour lists, volumes, corrections and free-surface flags at `x`.
 pub(crate) fn prepare<D: Dim>(
     e: &mut Engine<D>,
@@ -63,7 +68,13 @@ pub(crate) fn prepare<D: Dim>(
     }
     let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
     let fallbacks = if e.config.renormalise {
-        correction_matrices(&ctx, MIN_CORRECTION_DET, &mut e.corrections).fallbacks
+        correction_matrices(
+            &ctx,
+            MIN_CORRECTION_DET,
+            MAX_CORRECTION_GAIN,
+            &mut e.corrections,
+        )
+        .fallbacks
     } else {
         0
     };
@@ -74,8 +85,16 @@ pub(crate) fn prepare<D: Dim>(
         Some(fs) => {
             let clock = Instant::now();
             free_surface_indicator(&ctx, &mut e.div_r);
-            for (d, r) in e.dirichlet.iter_mut().zip(&e.div_r) {
-                *d = *r < fs.div_r_threshold;
+            if fs.scan {
+                let l = e.config.renormalise.then_some(&e.corrections[..]);
+                free_surface_scan(&ctx, l, &mut e.dirichlet);
+                for (d, r) in e.dirichlet.iter_mut().zip(&e.div_r) {
+                    *d = *d || *r < fs.div_r_threshold;
+                }
+            } else {
+                for (d, r) in e.dirichlet.iter_mut().zip(&e.div_r) {
+                    *d = *r < fs.div_r_threshold;
+                }
             }
             e.dirichlet[e.fluid..].fill(false);
             phases.add(Phase::FreeSurface, clock);
@@ -102,6 +121,7 @@ pub(crate) fn project<D: Dim>(
 ) -> Result<Projected, StepError> {
     let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
     let l = e.config.renormalise.then_some(&e.corrections[..]);
+    let consistent = l.filter(|_| e.config.consistent_laplacian);
     let mut hessian_fallbacks = 0;
     let nf = e.fluid;
     let g = e.config.effects.gravity.unwrap_or([0.0; 3]);
@@ -142,6 +162,7 @@ pub(crate) fn project<D: Dim>(
                 &e.source,
                 dt,
                 &e.dirichlet,
+                consistent,
                 &mut e.matrix,
                 &mut e.rhs,
             )
@@ -166,6 +187,7 @@ pub(crate) fn project<D: Dim>(
                 dt,
                 e.config.dg_hessian,
                 &e.dirichlet,
+                consistent,
                 &mut e.matrix,
                 &mut e.rhs,
             )

@@ -150,9 +150,10 @@ fn intermediate_velocity<D: Dim>(
 const MAX_SHIFT: f64 = 0.2;
 
 /// Particle shifting (see [`Shifting`](crate::Shifting)) at the projection's configuration:
-/// adds `δr_i = −A h |uⁿ⁺¹_i| Δt ∇C_i` (capped at 0.2 Δp, and at half the particle's distance to a
-/// wall, see [`Walls::limit_shift`](crate::Walls::limit_shift)) to the fluid
-/// displacements and corrects `uⁿ⁺¹_i += ∇uⁿ⁺¹_i δr_i`.
+/// adds `δr_i = −A h |uⁿ⁺¹_i| Δt ∇C_i` (only its part tangential to `∇C_i` on a free surface;
+/// capped at 0.2 Δp, and at half the particle's distance to a wall, see
+/// [`Walls::limit_shift`](crate::Walls::limit_shift)) to the fluid displacements and corrects
+/// `uⁿ⁺¹_i += ∇uⁿ⁺¹_i δr_i`.
 struct ShiftBuffers<'a, D: Dim> {
     grad_c: &'a mut [D::Vector],
     grad_u: &'a mut [D::Matrix],
@@ -168,8 +169,20 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
     let h = e.config.h;
     let cap = MAX_SHIFT * sh.spacing;
     let nf = e.fluid;
+    let free = e.config.free_surface.is_some();
     for i in 0..nf {
         let mut dr = b.grad_c[i] * (-sh.coefficient * h * b.u_new[i].length() * dt);
+        // On a free surface only the part tangential to it is kept (Lind et al. 2012,
+        // Sec. 3.3): the normal part of −∇C points out of the fluid and would spread the surface.
+        // Particles below the surface keep the whole shift, which keeps them from running into
+        // the surface layer (whose p = 0 cannot push them back).
+        if free && e.dirichlet[i] {
+            let g = b.grad_c[i];
+            let g2 = g.length_squared();
+            if g2 > 0.0 {
+                dr -= g * (dr.dot(g) / g2);
+            }
+        }
         let len = dr.length();
         if len > cap {
             dr *= cap / len;

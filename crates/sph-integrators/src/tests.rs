@@ -228,6 +228,8 @@ sph_core::dim_tests! {
             first,
             velocity: vec![lid; nw],
             mirror: vec![D::Vector::from_fn(|c| if c == 1 { -1.0 } else { 1.0 }); nw],
+            inward: vec![D::Vector::from_fn(|c| if c == 1 { 1.0 } else { 0.0 }); nw],
+            separation: false,
             geometry: crate::WallGeometry::closed_box(D::Vector::ZERO, D::Vector::from_fn(|_| 1.0)),
             thickness: 0.5,
         };
@@ -280,6 +282,8 @@ sph_core::dim_tests! {
             first: 3,
             velocity: vec![D::Vector::ZERO],
             mirror: vec![D::Vector::from_fn(|_| -1.0)],
+            inward: vec![D::Vector::from_fn(|_| 1.0)],
+            separation: false,
             geometry: crate::WallGeometry::closed_box(D::Vector::ZERO, D::Vector::from_fn(|_| 1.0)),
             thickness: 0.5,
         };

@@ -82,6 +82,14 @@ pub struct Walls<D: Dim> {
     /// Reflection of each wall particle's wall: `−1` along the axes normal to the wall(s) it
     /// sits behind, `+1` along the others (a corner block flips two axes).
     pub mirror: Vec<D::Vector>,
+    /// Direction from the fluid into the wall along each axis the mirror flips (`+1` or `−1`;
+    /// `0` along the other axes), one per wall particle.
+    pub inward: Vec<D::Vector>,
+    /// The fluid may leave the wall (flows with a free surface): the wall condition stops only
+    /// a velocity into the wall and leaves one away from it alone, so a wall never pulls the
+    /// fluid with a negative pressure. Without it (a closed box) `u·n = u_wall·n` is imposed
+    /// both ways, as incompressibility demands when no free surface can open a gap.
+    pub separation: bool,
     /// Where the walls are (containers and solid obstacles).
     pub geometry: WallGeometry<D>,
     /// Thickness of the wall layers. A fluid particle deeper in wall material than this has
@@ -192,8 +200,16 @@ impl<D: Dim> Walls<D> {
                     *g = match condition {
                         WallCondition::Continuation => {
                             // u_out[k] = ũ*_k; its normal part minus the wall's, per Δt, plus
-                            // the tangential part of gravity.
-                            let du = normal(k, u_out[k] - self.velocity[k]);
+                            // the tangential part of gravity. With separation, only the part
+                            // into the wall.
+                            let mut du = normal(k, u_out[k] - self.velocity[k]);
+                            if self.separation {
+                                let n = self.inward[k];
+                                du = D::Vector::from_fn(|a| {
+                                    let (d, s) = (du.get(a), n.get(a));
+                                    if d * s > 0.0 { d } else { 0.0 }
+                                });
+                            }
                             du * (1.0 / dt) + gravity - normal(k, gravity)
                         }
                         WallCondition::Reflection => gravity,
@@ -235,7 +251,9 @@ impl<D: Dim> Walls<D> {
     }
 
     pub(crate) fn check(&self, particles: usize) -> Result<(), WallError> {
-        if self.first + self.velocity.len() != particles || self.mirror.len() != self.velocity.len()
+        if self.first + self.velocity.len() != particles
+            || self.mirror.len() != self.velocity.len()
+            || self.inward.len() != self.velocity.len()
         {
             return Err(WallError::Count {
                 first: self.first,

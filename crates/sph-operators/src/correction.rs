@@ -18,12 +18,16 @@ pub struct CorrectionStats {
 ///
 /// With `∇̃W`, `Σ_j V_j (f_j − f_i) ∇̃W_ij = L_i B_i ∇f = ∇f` exactly for every linear field `f`,
 /// whatever the particle arrangement. On a full lattice `B_i ≈ I` (to the lattice-sum error of
-/// the kernel); at a free surface it is far from `I` and may be singular: where
-/// `det B_i < min_det` (relative to the interior value 1) the particle falls back to `L_i = I`,
-/// and the count is returned.
+/// the kernel); at a free surface it is far from `I` and may be singular or small: where
+/// `det B_i < min_det` (relative to the interior value 1), or where the inverse would amplify a
+/// gradient by more than `max_gain` (its largest entry in magnitude: a particle with few,
+/// distant neighbours, spray ahead of a front, whose `B_i` is small in every direction), the
+/// particle falls back to `L_i = I`, and the count is returned. On a flat free surface the
+/// gain is about 2.
 pub fn correction_matrices<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     min_det: f64,
+    max_gain: f64,
     out: &mut [D::Matrix],
 ) -> CorrectionStats {
     assert_eq!(out.len(), ctx.len());
@@ -39,7 +43,16 @@ pub fn correction_matrices<D: Dim, K: Kernel<D>>(
                 let g = ctx.kernel.grad_w(x_ij);
                 b += D::Matrix::outer(g, -x_ij) * ctx.volumes[j];
             }
-            match b.try_inverse(min_det) {
+            let gain = |m: &D::Matrix| {
+                let mut g: f64 = 0.0;
+                for r in 0..D::DIM {
+                    for c in 0..D::DIM {
+                        g = g.max(m.get(r, c).abs());
+                    }
+                }
+                g
+            };
+            match b.try_inverse(min_det).filter(|inv| gain(inv) <= max_gain) {
                 Some(inv) => {
                     *l = inv;
                     0

@@ -18,6 +18,7 @@
 //! | [`hessian`] | Σ V_j ((d+2) x̂⊗x̂ − I)(f_i − f_j) F_ij | Eq. 25 (corrected) |
 //! | [`hessian_quadratic_fit`] | weighted least-squares gradient + Hessian, exact for quadratics | — |
 //! | [`free_surface_indicator`] | ∇·r = Σ V_j (x_j − x_i)·∇W_ij | Nair & Tomar 2014 |
+//! | [`free_surface_scan`] | no neighbour in the umbrella region outside `x_i` | Marrone et al. 2010 |
 //! | [`viscous_acceleration`] | Σ m_j (μ_i+μ_j)/(ρ_iρ_j) F_ij (u_i − u_j) (Morris 1997) | Eq. 1 viscous term |
 //!
 //! with `F_ij = x_ij·∇W_ij / (r_ij² + (0.01h)²)` and `x_ij = x_i − x_j`. Optional kernel-gradient
@@ -80,7 +81,7 @@ pub use correction::{CorrectionStats, correction_matrices};
 pub use deformation::{Invariants, deformation_gradient, invariants, velocity_gradient};
 pub use density::{density_at_points, density_summation};
 pub use divergence::divergence;
-pub use free_surface::free_surface_indicator;
+pub use free_surface::{free_surface_indicator, free_surface_scan};
 pub use gradient::{GradientForm, gradient};
 pub use hessian::{HessianForm, hessian, hessian_stencil_eq25};
 pub use laplacian::laplacian;

@@ -57,7 +57,7 @@ sph_core::dim_tests! {
                 let mut vg = vec![D::Matrix::ZERO; n];
                 let mut fdef = vec![D::Matrix::ZERO; n];
                 lat.with_ctx(|ctx| {
-                    let stats = correction_matrices(ctx, 1e-12, &mut l);
+                    let stats = correction_matrices(ctx, 1e-12, f64::INFINITY, &mut l);
                     assert_eq!(stats.fallbacks, 0);
                     gradient(ctx, &f, GradientForm::Difference, Some(&l), &mut grad);
                     divergence(ctx, &u, Some(&l), &mut div);
@@ -412,7 +412,7 @@ sph_core::dim_tests! {
             .map(|x| D::Vector::from_fn(|k| if k == 0 { (tau * x.get(0)).sin() } else { 0.0 }))
             .collect();
         let mut l = vec![D::Matrix::ZERO; n];
-        correction_matrices(&ctx, 1e-12, &mut l);
+        correction_matrices(&ctx, 1e-12, f64::INFINITY, &mut l);
         let mut div = vec![0.0; n];
         divergence(&ctx, &u, Some(&l), &mut div);
         let err: Vec<f64> = positions

@@ -2,7 +2,7 @@
 
 use crate::csr::{CsrMatrix, for_each_row_mut};
 use crate::error::PressureError;
-use sph_core::{Dim, MatrixOps};
+use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
 use sph_operators::{SphContext, hessian_stencil_eq25, hessian_stencil_fit, pair_f};
 
@@ -27,6 +27,10 @@ pub enum PressureRhs<'a> {
 ///
 /// (`2 Σ_j V_j (p_i − p_j) F_ij / ρ` for uniform density). Rows of `dirichlet` particles become
 /// `p_i = 0`, and their columns are dropped from the other rows, so the matrix is symmetric.
+///
+/// With `consistent` (the renormalisation matrices `L_i`), the stencil is made exact for linear
+/// fields on any particle arrangement ([`linear_consistent`]); the matrix is then no longer
+/// symmetric.
 pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     masses: &[f64],
@@ -34,6 +38,7 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
     div_u_star: &[f64],
     dt: f64,
     dirichlet: &[bool],
+    consistent: Option<&[D::Matrix]>,
     matrix: &mut CsrMatrix,
     rhs: &mut [f64],
 ) -> Result<(), PressureError> {
@@ -56,8 +61,14 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
             let rho = densities[i] + densities[j];
             let c = -masses[j] * 8.0 / (rho * rho) * pair_f::<D, K>(ctx.kernel, ctx.pair(xi, j));
             sum += c;
-            if !dirichlet[j] {
-                row[k] = -c;
+            row[k] = -c;
+        }
+        if let Some(l) = consistent {
+            sum += linear_consistent(ctx, i, cols, diag, &l[i], row);
+        }
+        for (k, &j) in cols.iter().enumerate() {
+            if dirichlet[j as usize] {
+                row[k] = 0.0;
             }
         }
         row[diag] = sum;
@@ -77,6 +88,8 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
 /// coefficient `d + 2`, or the exact-for-quadratics fit). For `A = I` the row reduces to the
 /// PPE row, a check the tests make. See the crate docs for the sign. Returns the number of rows
 /// where the quadratic fit fell back to Eq. 25.
+///
+/// With `consistent`, the stencil is made exact for linear fields ([`linear_consistent`]).
 pub fn assemble_dg<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     densities: &[f64],
@@ -85,6 +98,7 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
     dt: f64,
     hessian: DgHessian,
     dirichlet: &[bool],
+    consistent: Option<&[D::Matrix]>,
     matrix: &mut CsrMatrix,
     rhs: &mut [f64],
 ) -> Result<usize, PressureError> {
@@ -105,9 +119,7 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
             // Negated row: −s_ij on p_j, +Σ s_ij on p_i, with s_ij = cof(A):C_ij / ρ_i.
             let s = cof.contract(&c) * inv_rho;
             sum += s;
-            if !dirichlet[cols[k] as usize] {
-                row[k] -= s;
-            }
+            row[k] -= s;
         };
         match hessian {
             DgHessian::Eq25 => hessian_stencil_eq25(ctx, i, &mut emit),
@@ -117,11 +129,62 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
                 }
             }
         }
+        if let Some(l) = consistent {
+            sum += linear_consistent(ctx, i, cols, diag, &l[i], row);
+        }
+        for (k, &j) in cols.iter().enumerate() {
+            if k != diag && dirichlet[j as usize] {
+                row[k] = 0.0;
+            }
+        }
         row[diag] += sum;
     });
     fill_rhs(rhs, dirichlet, |i| -det_a_minus_one[i] / (dt * dt));
     check_finite(matrix, nl.offsets(), rhs)?;
     Ok(fallbacks.into_inner())
+}
+
+/// Makes a stencil `Σ_j a_ij (p_j − p_i)` (row `i` holding `−a_ij` off the diagonal) exact for
+/// linear fields on any particle arrangement, by subtracting the linear part the renormalised
+/// gradient `G_i p = Σ_k V_k (p_k − p_i) L_i∇W_ik` measures:
+///
+/// ```text
+/// Σ_j a_ij (p_j − p_i − x_ji·G_i p) = Σ_k a'_ik (p_k − p_i),
+/// a'_ik = a_ik + V_k s_i·(L_i ∇W_ik),   s_i = Σ_j a_ij x_ij
+/// ```
+///
+/// (the Laplacian correction of Fatehi & Manzari 2011, Comput. Math. Appl. 61, 482, in its
+/// one-ring form: the stencil keeps the neighbour pattern). For a linear field the bracket
+/// vanishes, so a hydrostatic pressure is an exact discrete solution however disordered the
+/// particles are; on a symmetric neighbourhood `s_i = 0` and the stencil is unchanged. Updates
+/// the off-diagonal entries and returns `Σ_k (a'_ik − a_ik)` for the diagonal.
+fn linear_consistent<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    i: usize,
+    cols: &[u32],
+    diag: usize,
+    l: &D::Matrix,
+    row: &mut [f64],
+) -> f64 {
+    let xi = ctx.positions[i];
+    let mut s_i = D::Vector::ZERO;
+    for (k, &j) in cols.iter().enumerate() {
+        if k != diag {
+            s_i += ctx.pair(xi, j as usize) * (-row[k]);
+        }
+    }
+    let mut added = 0.0;
+    for (k, &j) in cols.iter().enumerate() {
+        let j = j as usize;
+        if k == diag {
+            continue;
+        }
+        let g = *l * ctx.kernel.grad_w(ctx.pair(xi, j));
+        let delta = ctx.volumes[j] * s_i.dot(g);
+        row[k] -= delta;
+        added += delta;
+    }
+    added
 }
 
 /// Clears `row` and returns its columns and diagonal position, or writes the Dirichlet row

@@ -25,7 +25,7 @@ fn pipeline<D: Dim>(kind: SearchKind) -> (Vec<f64>, Vec<D::Matrix>) {
         .collect();
     let f: Vec<f64> = pts.iter().map(|x| x.length_squared()).collect();
     let mut l = vec![D::Matrix::ZERO; n];
-    correction_matrices(&ctx, 1e-9, &mut l);
+    correction_matrices(&ctx, 1e-9, f64::INFINITY, &mut l);
     let mut div = vec![0.0; n];
     divergence(&ctx, &u, Some(&l), &mut div);
     let mut h = vec![D::Matrix::ZERO; n];

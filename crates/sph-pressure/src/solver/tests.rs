@@ -56,6 +56,7 @@ impl<D: Dim> Fixture<D> {
             &zeros,
             1.0,
             &self.dirichlet,
+            None,
             &mut m,
             &mut rhs,
         )
@@ -138,7 +139,7 @@ sph_core::dim_tests! {
         let a = vec![D::Matrix::IDENTITY; n];
         let zeros = vec![0.0; n];
         let ones = vec![1.0; n];
-        assemble_dg(&fx.ctx(), &ones, &a, &zeros, 1.0, DgHessian::Eq25, &fx.dirichlet, &mut dg, &mut rhs).unwrap();
+        assemble_dg(&fx.ctx(), &ones, &a, &zeros, 1.0, DgHessian::Eq25, &fx.dirichlet, None, &mut dg, &mut rhs).unwrap();
         for (k, (x, y)) in dg.values.iter().zip(&ppe.values).enumerate() {
             assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "entry {k}: {x} vs {y}");
         }
