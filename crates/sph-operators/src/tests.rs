@@ -435,3 +435,107 @@ sph_core::dim_tests! {
         assert!((face - inner).abs() < 1e-9, "face {face} vs inside {inner}");
     }
 }
+
+sph_core::dim_tests! {
+    /// The umbrella scan flags exactly the top layer of a half-space block (whose upper face is
+    /// free), also where a top-layer particle is crowded by a neighbour pushed close to it, which
+    /// lifts its `∇·r` above the surface threshold; no particle below is flagged.
+    fn free_surface_scan_finds_crowded_surface_particles<D>() {
+        let dx = 0.1;
+        let m: usize = if D::DIM == 2 { 14 } else { 8 };
+        let top = (m - 1) as f64 * dx;
+        let mut positions: Vec<D::Vector> = (0..m.pow(D::DIM as u32))
+            .map(|flat| {
+                let mut rem = flat;
+                D::Vector::from_fn(|_| {
+                    let k = rem % m;
+                    rem /= m;
+                    k as f64 * dx
+                })
+            })
+            .collect();
+        // Crowd a top-layer particle in the middle: its neighbour below moves up to 0.4 dx.
+        let mid = |y: f64| D::Vector::from_fn(|k| if k == 1 { y } else { (m / 2) as f64 * dx });
+        let crowded = positions.iter().position(|x| (*x - mid(top)).length() < 1e-9).unwrap();
+        let below = positions.iter().position(|x| (*x - mid(top - dx)).length() < 1e-9).unwrap();
+        positions[below] = mid(top - 0.4 * dx);
+        // And spray particles above it on either side, 51° off the vertical and a spacing away:
+        // outside the umbrella, but adding to ∇·r.
+        let spray = positions.len();
+        for axis in (0..D::DIM).filter(|k| *k != 1) {
+            for side in [-1.0, 1.0] {
+                positions.push(mid(top) + D::Vector::from_fn(|k| {
+                    if k == axis {
+                        side * 0.8 * dx
+                    } else if k == 1 {
+                        0.65 * dx
+                    } else {
+                        0.0
+                    }
+                }));
+            }
+        }
+        let n = positions.len();
+        let kernel = KernelKind::WendlandC2.build::<D>(1.3 * dx);
+        let mut grid = sph_neighbors::CellGrid::<D>::new();
+        sph_neighbors::NeighborSearch::build(&mut grid, &positions, kernel.support_radius()).unwrap();
+        let mut nl = sph_neighbors::NeighborList::new();
+        sph_neighbors::NeighborSearch::query(&grid, &positions, &mut nl);
+        let volumes = vec![dx.powi(D::DIM as i32); n];
+        let ctx = SphContext::new(&positions, &volumes, &nl, &kernel);
+        let mut l = vec![D::Matrix::ZERO; n];
+        correction_matrices(&ctx, 1e-6, f64::INFINITY, &mut l);
+        let mut flags = vec![false; n];
+        free_surface_scan(&ctx, Some(&l), &mut flags);
+        let mut div_r = vec![0.0; n];
+        free_surface_indicator(&ctx, &mut div_r);
+        let inner = |x: &D::Vector| (0..D::DIM).all(|k| k == 1 || (x.get(k) > 2.5 * dx && x.get(k) < top - 2.5 * dx));
+        for (i, x) in positions.iter().enumerate() {
+            // Away from the block's other (also free) faces, only the top layer is a surface.
+            // (Particles next to the crowded one may lie under the spray: left out.)
+            let near_spray = (*x - positions[crowded]).length() < 1.5 * dx;
+            if inner(x) && x.get(1) > 2.5 * dx && i < spray && !near_spray {
+                let on_top = (x.get(1) - top).abs() < 1e-9;
+                assert_eq!(flags[i], on_top, "particle {i} at {x:?}");
+            }
+        }
+        assert!(flags[crowded]);
+        assert!(div_r[crowded] > 0.75 * D::DIM as f64, "∇·r = {} would have caught it", div_r[crowded]);
+    }
+
+    /// A particle whose few neighbours all lie near the edge of its support has a small moment
+    /// matrix in every direction; its renormalisation would amplify a gradient many-fold, so it
+    /// falls back to `L = I` under a gain limit, while a full neighbourhood keeps its `L`.
+    fn renormalisation_gain_limit_catches_sparse_neighbourhoods<D>() {
+        let dx = 0.1;
+        let h = 1.3 * dx;
+        let kernel = KernelKind::WendlandC2.build::<D>(h);
+        let r = 0.9 * kernel.support_radius();
+        // One particle with neighbours on the axes at 0.9 of the support, both directions.
+        let mut positions = vec![D::Vector::ZERO];
+        for k in 0..D::DIM {
+            for s in [-1.0, 1.0] {
+                positions.push(D::Vector::from_fn(|c| if c == k { s * r } else { 0.0 }));
+            }
+        }
+        let n = positions.len();
+        let mut grid = sph_neighbors::CellGrid::<D>::new();
+        sph_neighbors::NeighborSearch::build(&mut grid, &positions, kernel.support_radius()).unwrap();
+        let mut nl = sph_neighbors::NeighborList::new();
+        sph_neighbors::NeighborSearch::query(&grid, &positions, &mut nl);
+        let volumes = vec![dx.powi(D::DIM as i32); n];
+        let ctx = SphContext::new(&positions, &volumes, &nl, &kernel);
+        let mut l = vec![D::Matrix::ZERO; n];
+        let unlimited = correction_matrices(&ctx, 1e-12, f64::INFINITY, &mut l);
+        assert!(max_abs::<D>(&l[0]) > 5.0, "gain {}", max_abs::<D>(&l[0]));
+        let limited = correction_matrices(&ctx, 1e-12, 5.0, &mut l);
+        assert_eq!(limited.fallbacks, unlimited.fallbacks + 1);
+        assert_eq!(l[0], D::Matrix::IDENTITY);
+        // A full lattice neighbourhood keeps its correction (gain ≈ 1).
+        let lat = Lattice::<D>::new(KernelKind::WendlandC2, 1.3, 0.1);
+        let mut ll = vec![D::Matrix::ZERO; lat.len()];
+        lat.with_ctx(|ctx| correction_matrices(ctx, 1e-12, 5.0, &mut ll));
+        let c = lat.centre();
+        assert!(ll[c] != D::Matrix::IDENTITY && max_abs::<D>(&ll[c]) < 2.0);
+    }
+}
