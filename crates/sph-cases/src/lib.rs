@@ -11,6 +11,7 @@
 //! | case | module | effects | reference |
 //! |---|---|---|---|
 //! | `flow` | [`flow`] | what the scene declares | the scene's `[[check]]`s |
+//! | `dam_break` | [`dam_break`] | gravity, free surface, walls | Martin & Moyce (1952) |
 //! | `elliptical_drop` / `spheroid_drop` | [`drop`] | free surface | exact drop solution |
 //! | `prescribed_ellipse` / `prescribed_ellipsoid` | [`prescribed`] | none (prescribed u) | exact slopes |
 //! | `lid_driven_cavity` | [`cavity`] | walls, lid, viscosity (+ shifting) | Ghia et al. (1982) |
@@ -26,6 +27,7 @@ pub mod blocks;
 mod case;
 pub mod cavity;
 mod check;
+pub mod dam_break;
 pub mod drop;
 mod error;
 pub mod figures;

@@ -17,6 +17,7 @@ use sph_integrators::SchemeKind;
 pub fn case<D: Dim>(scene: &Scene, scheme: SchemeKind, refs: &References) -> Box<dyn Case<D>> {
     match scene.case {
         CaseKind::Flow => Box::new(crate::flow::FlowCase::new(scene)),
+        CaseKind::DamBreak => Box::new(crate::dam_break::DamBreakCase::new(scene, refs)),
         CaseKind::EllipticalDrop | CaseKind::SpheroidDrop => {
             Box::new(crate::drop::DropCase::new::<D>(scene, refs))
         }
@@ -58,10 +59,23 @@ pub fn run_scheme(
     }
 }
 
+const FLOW_RESULTS: [&str; 3] = ["centroid_x", "centroid_y", "centroid_z"];
+const DAM_BREAK_RESULTS: [&str; 8] = [
+    "centroid_x",
+    "centroid_y",
+    "centroid_z",
+    crate::dam_break::RESULTS[0],
+    crate::dam_break::RESULTS[1],
+    crate::dam_break::RESULTS[2],
+    crate::dam_break::RESULTS[3],
+    crate::dam_break::RESULTS[4],
+];
+
 /// The results a case reports besides the run loop's ([`COMMON_RESULTS`]).
 pub fn case_results(kind: CaseKind) -> &'static [&'static str] {
     match kind {
-        CaseKind::Flow => &["centroid_x", "centroid_y", "centroid_z"],
+        CaseKind::Flow => &FLOW_RESULTS,
+        CaseKind::DamBreak => &DAM_BREAK_RESULTS,
         CaseKind::EllipticalDrop | CaseKind::SpheroidDrop => &[
             "t_last_full_step",
             "volume_change",
@@ -116,6 +130,9 @@ pub fn validate(scene: &Scene, name: &str) -> Result<(), CaseError> {
                 .into(),
         );
     }
+    if scene.case == CaseKind::DamBreak {
+        crate::dam_break::validate(scene, name)?;
+    }
     let own = case_results(scene.case);
     for (i, c) in scene.check.iter().enumerate() {
         if !COMMON_RESULTS.contains(&c.quantity.as_str()) && !own.contains(&c.quantity.as_str()) {
@@ -168,6 +185,20 @@ pub fn figures(kind: CaseKind, dim: usize) -> Vec<Figure> {
         )]
     };
     match kind {
+        CaseKind::DamBreak => {
+            let mut f = vec![Figure::lines(
+                "front",
+                "surge front against Martin & Moyce (1952)",
+                "time_T",
+                "Z = z/a",
+                vec![
+                    Series::per_scheme("front_Z"),
+                    Series::reference("front_Z_reference", "Martin & Moyce (1952)"),
+                ],
+            )];
+            f.extend(common());
+            f
+        }
         CaseKind::Flow => {
             let mut f = common();
             f.push(Figure::lines(

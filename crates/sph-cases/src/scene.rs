@@ -49,6 +49,9 @@ pub enum CaseKind {
     /// what the scene's `[[check]]` tables declare. The default.
     #[default]
     Flow,
+    /// A collapsing water column (Martin & Moyce 1952): the scene's first fluid block is the
+    /// column; records the surge front and compares it with the experiment.
+    DamBreak,
     /// 2D free-surface drop of the paper's Section 5 (Eq. 29).
     EllipticalDrop,
     /// 3D free-surface prolate spheroid of Section 5 (Eq. 30).
@@ -64,8 +67,9 @@ pub enum CaseKind {
 
 impl CaseKind {
     /// Every case.
-    pub const ALL: [CaseKind; 6] = [
+    pub const ALL: [CaseKind; 7] = [
         CaseKind::Flow,
+        CaseKind::DamBreak,
         CaseKind::EllipticalDrop,
         CaseKind::SpheroidDrop,
         CaseKind::PrescribedEllipse,
@@ -77,6 +81,7 @@ impl CaseKind {
     pub fn name(self) -> &'static str {
         match self {
             CaseKind::Flow => "flow",
+            CaseKind::DamBreak => "dam_break",
             CaseKind::EllipticalDrop => "elliptical_drop",
             CaseKind::SpheroidDrop => "spheroid_drop",
             CaseKind::PrescribedEllipse => "prescribed_ellipse",
@@ -96,14 +101,14 @@ impl CaseKind {
     /// Whether the case can run in `dim` dimensions.
     pub fn supports_dim(self, dim: usize) -> bool {
         match self {
-            CaseKind::LidDrivenCavity | CaseKind::Flow => dim == 2 || dim == 3,
+            CaseKind::LidDrivenCavity | CaseKind::Flow | CaseKind::DamBreak => dim == 2 || dim == 3,
             _ => dim == self.dim(),
         }
     }
 
     /// Whether the scene's `[[fluid]]`/`[[wall]]`/`[domain]` blocks pose the geometry.
     pub fn uses_blocks(self) -> bool {
-        matches!(self, CaseKind::Flow)
+        matches!(self, CaseKind::Flow | CaseKind::DamBreak)
     }
 }
 
@@ -496,7 +501,7 @@ impl Scene {
                     (1.0 / probe).round().max(1.0).powi(d),
                 )
             }
-            CaseKind::Flow => {
+            CaseKind::Flow | CaseKind::DamBreak => {
                 let fluid: f64 = self
                     .fluid
                     .iter()
