@@ -377,10 +377,14 @@ pub fn run_scene(
                 .iter()
                 .filter_map(|k| r.results.get(*k).map(|v| format!("{k} {v:.4e}")))
                 .chain(
-                    ["max_wall_penetrations", "max_wall_intrusion_dx"]
-                        .iter()
-                        .filter(|_| r.particles.1 > 0)
-                        .filter_map(|k| r.results.get(*k).map(|v| format!("{k} {v}"))),
+                    [
+                        "max_wall_penetrations",
+                        "max_wall_intrusion_dx",
+                        "wall_guarded",
+                    ]
+                    .iter()
+                    .filter(|_| r.particles.1 > 0)
+                    .filter_map(|k| r.results.get(*k).map(|v| format!("{k} {v}"))),
                 )
                 .collect();
             if !key.is_empty() {

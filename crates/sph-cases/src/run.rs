@@ -123,6 +123,11 @@ pub fn common_columns() -> Vec<Column> {
             "h",
             "largest fluid displacement of the last step, in smoothing lengths",
         ),
+        Column::new(
+            "wall_guarded",
+            "",
+            "fluid particles the walls' guard stopped from crossing a wall in the last step",
+        ),
         Column::new("step_seconds", "s", "wall time of the last step"),
     ];
     for p in Phase::ALL {
@@ -136,13 +141,14 @@ pub fn common_columns() -> Vec<Column> {
 }
 
 /// The names of the results every run reports (cases add their own).
-pub const COMMON_RESULTS: [&str; 10] = [
+pub const COMMON_RESULTS: [&str; 11] = [
     "reached_t",
     "steps",
     "max_wall_penetrations",
     "max_wall_intrusion_dx",
     "max_speed",
     "max_displacement",
+    "wall_guarded",
     "kinetic_energy",
     "solver_iterations_mean",
     "wall_seconds",
@@ -181,6 +187,7 @@ fn common_values<D: Dim>(sim: &Simulation<D>, report: Option<&StepReport>, out: 
         det.map_or(nan, |d| d.mean),
         det.map_or(nan, |d| d.max),
         r(&|r| r.max_displacement),
+        r(&|r| r.wall_guarded as f64),
         r(&|r| r.seconds),
     ]);
     for ph in Phase::ALL {
@@ -201,6 +208,7 @@ struct Tally {
     intrusion: f64,
     speed: f64,
     displacement: f64,
+    guarded: usize,
     iterations: f64,
     steps: usize,
     phases: PhaseTimes,
@@ -310,6 +318,7 @@ pub fn run_scheme<D: Dim>(
         };
         tally.steps += 1;
         tally.displacement = tally.displacement.max(report.max_displacement);
+        tally.guarded += report.wall_guarded;
         tally.iterations += report.solve.iterations as f64;
         tally.phases.accumulate(&report.phases);
         let snap = pending.peek().is_some_and(|t| *t <= due(sim.t));
@@ -344,6 +353,7 @@ pub fn run_scheme<D: Dim>(
         ("max_wall_intrusion_dx", tally.intrusion / scene.dx),
         ("max_speed", tally.speed.max(sim.max_speed())),
         ("max_displacement", tally.displacement),
+        ("wall_guarded", tally.guarded as f64),
         ("kinetic_energy", {
             let p = &sim.particles;
             0.5 * p.masses[..counts.0]

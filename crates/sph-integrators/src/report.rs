@@ -162,6 +162,9 @@ pub struct StepReport {
     pub wall_penetrations: usize,
     /// Largest displacement of a fluid particle in the step, in smoothing lengths.
     pub max_displacement: f64,
+    /// Fluid particles whose displacement would have crossed a wall and was cut short (the
+    /// walls' guard; 0 when the wall condition held them).
+    pub wall_guarded: usize,
     /// Which passes ran and how long each took.
     pub phases: PhaseTimes,
     /// Wall time of the whole step in seconds.

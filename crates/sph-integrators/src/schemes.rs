@@ -331,6 +331,7 @@ fn projection_step<D: Dim>(
         phases.add(Phase::Shifting, clock);
     }
     let max_displacement = check_displacements(&sim.engine, p, &sim.buf.disp, step, t)?;
+    let wall_guarded = guard_walls(&sim.engine, p, &mut sim.buf.disp, &mut sim.buf.u_new);
     let det_f = if det_f_wanted {
         let clock = Instant::now();
         if rule == PositionRule::Predicted {
@@ -367,6 +368,7 @@ fn projection_step<D: Dim>(
         gauge_multiplier: projected.gauge_multiplier,
         wall_penetrations: sim.wall_penetrations(),
         max_displacement,
+        wall_guarded,
         phases,
         seconds: t0.elapsed().as_secs_f64(),
     };
@@ -426,6 +428,42 @@ fn check_displacements<D: Dim>(
         }
     }
     Ok(value)
+}
+
+/// The walls' last line of defence: a fluid particle in the fluid region whose displacement
+/// would carry it across a wall (the projection did not stop it, e.g. a thin film sliding fast
+/// along a floor) has the components of its displacement into the wall cut to half its distance
+/// to that wall ([`Walls::limit_shift`](crate::Walls::limit_shift)), and its velocity
+/// components along them scaled alike. Returns how many particles it caught (each step's
+/// report and record carry the count, so the guard never acts unseen).
+fn guard_walls<D: Dim>(
+    e: &Engine<D>,
+    p: &ParticleSet<D>,
+    disp: &mut [D::Vector],
+    u_new: &mut [D::Vector],
+) -> usize {
+    let Some(w) = &e.walls else { return 0 };
+    let mut caught = 0;
+    for i in 0..e.fluid {
+        let x = p.positions[i];
+        let y = x + disp[i];
+        let y = e.periodic.map_or(y, |per| per.wrap(y));
+        if w.depth(y) > 0.0 && w.depth(x) == 0.0 {
+            let d = disp[i];
+            let cut = w.limit_shift(x, d);
+            u_new[i] = D::Vector::from_fn(|k| {
+                let (a, b) = (d.get(k), cut.get(k));
+                if a != 0.0 && a != b {
+                    u_new[i].get(k) * (b / a)
+                } else {
+                    u_new[i].get(k)
+                }
+            });
+            disp[i] = cut;
+            caught += 1;
+        }
+    }
+    caught
 }
 
 /// [`prepare`] at the particles' current positions `xⁿ`.
