@@ -56,6 +56,22 @@ pub fn hull_measure<D: Dim>(points: &[D::Vector]) -> Option<f64> {
     if points.len() < D::DIM + 1 {
         return None;
     }
+    // parry's quickhull panics on non-finite input (and loses precision far from the origin):
+    // a cloud that has blown up has no meaningful hull.
+    if points
+        .iter()
+        .any(|p| !p.is_finite() || (0..D::DIM).any(|k| p.get(k).abs() > 1e100))
+    {
+        return None;
+    }
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        hull_measure_finite::<D>(points)
+    }))
+    .ok()
+    .flatten()
+}
+
+fn hull_measure_finite<D: Dim>(points: &[D::Vector]) -> Option<f64> {
     if D::DIM == 2 {
         let pts: Vec<parry2d_f64::math::Vector2> = points
             .iter()

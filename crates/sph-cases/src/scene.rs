@@ -300,6 +300,9 @@ impl Estimate {
     }
 }
 
+/// Fewest fluid particles a scene's geometry may hold (estimated before building).
+const MIN_FLUID_ESTIMATE: f64 = 16.0;
+
 /// Bytes per particle other than the neighbour lists and the matrix: positions, velocities,
 /// scratch vectors and matrices of the schemes (≈ 60 f64 in 3D).
 const BYTES_PER_PARTICLE: f64 = 600.0;
@@ -1248,6 +1251,15 @@ impl Validator<'_> {
         let s = self.scene;
         let e = s.estimate();
         let l = &s.limits;
+        if e.fluid < MIN_FLUID_ESTIMATE {
+            return self.bad(
+                "dx",
+                format!(
+                    "= {} resolves the fluid with about {:.0} particles; a run needs at least {}",
+                    s.dx, e.fluid, MIN_FLUID_ESTIMATE
+                ),
+            );
+        }
         if e.steps > l.steps() as f64 {
             return self.bad(
                 "t_end",

@@ -23,6 +23,8 @@ pub mod testing;
 
 pub use dim::{D2, D3, Dim, MatrixOps, VectorOps};
 pub use error::CoreError;
+/// The linear-algebra crate behind [`D2`] and [`D3`].
+pub use glam;
 pub use particles::ParticleSet;
 pub use periodic::{Periodic, PeriodicError};
 

@@ -6,7 +6,11 @@ use sph_kernels::Kernel;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum HessianForm {
     /// Paper Eq. (25) with the coefficient `d + 2` (see [`hessian`]). Its trace is the Morris
-    /// Laplacian; ≈ 1.6 % (quintic) to 6 % (Wendland C2) off on quadratic fields at h = 1.3 dx.
+    /// Laplacian. On quadratic fields at h = 1.3 dx (3D lattice) its error is 1.6 % (quintic) to
+    /// 6.2 % (Wendland C2) of max |H|; per entry it is larger: off-diagonal entries −3.25 % and
+    /// −13.1 %, diagonal entries up to −4.9 % and −18.6 % for `H = ((2,1,1),(1,4,1),(1,1,6))` (a
+    /// diagonal entry's error mixes in the trace, so it depends on the field; test
+    /// `eq25_hessian_entry_errors_3d`).
     #[default]
     Eq25,
     /// Weighted least-squares fit (see [`hessian_quadratic_fit`](crate::hessian_quadratic_fit)):

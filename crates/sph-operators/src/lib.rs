@@ -30,15 +30,16 @@
 //! and the diagonal of a quadratic field with H = diag(2, 4, 6) comes out as `0.8 H − 1.2` =
 //! (0.4, 2.0, 3.6) in the continuum limit (see `hessian::tests::papers_2d_coefficient_fails_in_3d`).
 //!
-//! This crate depends only on the kernel and neighbour crates, which it re-exports, so a
-//! downstream crate can depend on `sph-operators` alone:
+//! This crate depends only on the kernel and neighbour crates, which it re-exports with
+//! `sph-core` and `glam`, so a downstream crate can depend on `sph-operators` alone (the crate
+//! `tests/downstream` of the workspace does exactly that):
 //!
 //! ```
 //! use sph_operators::core::{D2, Dim, VectorOps, testing::lattice};
 //! use sph_operators::kernels::{Kernel, QuinticSpline};
 //! use sph_operators::neighbors::{CellGrid, NeighborList, NeighborSearch};
+//! use sph_operators::glam::DVec2;
 //! use sph_operators::{SphContext, divergence};
-//! use glam::DVec2;
 //!
 //! // Your own particle arrays: a 21 × 21 lattice with spacing dx and the field u = (−x, y).
 //! let dx = 0.05;
@@ -91,6 +92,8 @@ pub use viscosity::viscous_acceleration;
 
 /// The dimension abstraction (re-export of `sph-core`).
 pub use sph_core as core;
+/// The vector and matrix types `D2`/`D3` map to (re-export of `glam`).
+pub use sph_core::glam;
 /// Smoothing kernels (re-export of `sph-kernels`).
 pub use sph_kernels as kernels;
 /// Neighbour search (re-export of `sph-neighbors`).

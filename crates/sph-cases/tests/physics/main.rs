@@ -2,6 +2,7 @@
 
 mod cavity;
 mod drop_runs;
+mod effects;
 mod flows;
 mod section3;
 mod step_one;

@@ -377,3 +377,53 @@ sph_core::dim_tests! {
         assert!(diff <= 1e-10 * big, "A = I: DG row {diff} off the PPE row");
     }
 }
+
+sph_core::dim_tests! {
+    /// The DG equation on its own, with the exact-for-quadratics Hessian so only the equation is
+    /// tested: for a non-symmetric `A` with `det A ≠ 1` and a quadratic pressure whose Hessian
+    /// `H = α diag(1, 2, 3)` is chosen so that `(Δt²/ρ) cof(A):H = det A − 1`, the assembled row times `p`
+    /// equals the right-hand side (the sign of both sides and the coefficient `cof(A)`, not `A`,
+    /// `A⁻¹` or `I`), and the step's deformation `F = A − (Δt²/ρ) H` then keeps volume:
+    /// `det F − 1 = O((det A − 1)²)`. With the paper's printed sign (`1 − det A`) `det F − 1`
+    /// would double instead.
+    fn dg_equation_sign_and_cofactor<D>() {
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 20 } else { 10 });
+        let n = fx.pts.len();
+        let a_mat = D::Matrix::from_fn(|i, j| {
+            if i == j { 1.0 + 0.01 * (i as f64 + 1.0) } else { 0.004 * (i as f64 - j as f64 + 0.5) }
+        });
+        let (dt, rho) = (1e-3, 1.0);
+        let det_a1 = a_mat.determinant() - 1.0;
+        let cof = a_mat.cofactor();
+        let shape = D::Matrix::from_fn(|i, j| if i == j { 1.0 + i as f64 } else { 0.0 });
+        let alpha = rho * det_a1 / (dt * dt * cof.contract(&shape));
+        let h = shape * alpha;
+        let p: Vec<f64> = fx
+            .pts
+            .iter()
+            .map(|x| 0.5 * (0..D::DIM).map(|k| h.get(k, k) * x.get(k) * x.get(k)).sum::<f64>())
+            .collect();
+        let a = vec![a_mat; n];
+        let src = vec![det_a1; n];
+        let ones = vec![rho; n];
+        let none = vec![false; n];
+        let mut m = CsrMatrix::default();
+        let mut rhs = vec![0.0; n];
+        let fallbacks = assemble_dg(&fx.ctx(), &ones, &a, &src, dt, DgHessian::QuadraticFit, &none, None, &mut m, &mut rhs).unwrap();
+        assert_eq!(fallbacks, 0);
+        let mut mp = vec![0.0; n];
+        m.matvec(fx.nl.offsets(), fx.nl.indices(), &p, &mut mp);
+        let scale = det_a1.abs() / (dt * dt);
+        for i in 0..n {
+            assert!((mp[i] - rhs[i]).abs() < 1e-8 * scale, "row {i}: {} vs {}", mp[i], rhs[i]);
+            assert!((rhs[i] + det_a1 / (dt * dt)).abs() < 1e-12 * scale);
+        }
+        // The resulting deformation gradient keeps volume to second order in det A − 1.
+        let f = a_mat - h * (dt * dt / rho);
+        assert!((f.determinant() - 1.0).abs() < 0.05 * det_a1.abs(), "det F − 1 = {}", f.determinant() - 1.0);
+        // The other candidate coefficients give a different row: cof(A) is not A, A⁻¹ or I here.
+        for other in [a_mat, a_mat.try_inverse(1e-12).unwrap(), D::Matrix::IDENTITY] {
+            assert!((other.contract(&h) - cof.contract(&h)).abs() > 1e-3 * cof.contract(&h).abs());
+        }
+    }
+}
