@@ -32,7 +32,7 @@ pub struct RunArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     pub frame_every: Option<u64>,
     /// Seconds between progress lines when stderr is not a terminal (0: none).
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
     pub progress_every: f64,
     /// Changes to the scene.
     #[command(flatten)]

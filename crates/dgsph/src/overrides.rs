@@ -38,13 +38,13 @@ impl Preset {
 #[derive(Clone, Debug, Default, clap::Args)]
 pub struct Overrides {
     /// Override the particle spacing.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub dx: Option<f64>,
     /// Override the time step.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub dt: Option<f64>,
     /// Override the end time.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub t_end: Option<f64>,
     /// Override the schemes (comma-separated: `euler,predictor_corrector,dg`).
     #[arg(long)]
@@ -56,19 +56,19 @@ pub struct Overrides {
     #[arg(long)]
     pub solver: Option<String>,
     /// Override the solver's relative tolerance.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub solver_tolerance: Option<f64>,
     /// Override the free-surface threshold on ∇·r.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub div_r_threshold: Option<f64>,
     /// Override the DG Hessian (`eq25` or `quadratic_fit`).
     #[arg(long)]
     pub dg_hessian: Option<String>,
     /// Override the cavity's Reynolds number.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub re: Option<f64>,
     /// Declare particle shifting with this coefficient A (Lind et al. 2012).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub shifting: Option<f64>,
 }
 

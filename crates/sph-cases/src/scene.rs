@@ -447,7 +447,7 @@ impl Scene {
     pub fn parse(name: &str, text: &str) -> Result<Self, CaseError> {
         let scene: Scene = toml::from_str(text).map_err(|e| CaseError::Parse {
             scene: name.to_string(),
-            message: e.to_string(),
+            message: clip_lines(&e.to_string(), 160),
         })?;
         scene.validate(name)?;
         if scene.quick.is_some() {
@@ -1304,6 +1304,19 @@ impl Validator<'_> {
         }
         Ok(())
     }
+}
+
+/// `message` with every line cut to `width` characters (a parser echoes the offending line,
+/// which in a damaged file can be megabytes long).
+fn clip_lines(message: &str, width: usize) -> String {
+    message
+        .lines()
+        .map(|l| match l.char_indices().nth(width) {
+            Some((cut, _)) => format!("{} …", &l[..cut]),
+            None => l.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 #[cfg(test)]

@@ -51,7 +51,7 @@ pub enum StepError {
     /// ([`Limits::max_displacement`](crate::Limits)): the flow has blown up (or the step is far
     /// too large for it). The particles are left as they were before the step.
     #[error(
-        "step {step} (t = {t:.6e}): blow-up: particle {particle} would move {value:.3e} smoothing          lengths in one step (limit {limit}); the time step is too large for this flow, or the flow          is unstable"
+        "step {step} (t = {t:.6e}): blow-up: particle {particle} would move {value:.3e} smoothing lengths in one step (limit {limit:e}); the time step is too large for this flow, or the flow is unstable"
     )]
     BlowUp {
         /// Step number.
