@@ -192,7 +192,17 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
     dgsph::output::write_atomic(&path, &json)
         .with_context(|| format!("writing {}", path.display()))
         .map_err(AppError::Output)?;
-    println!("summary: {}", path.display());
+    // The file must read back into the same struct (the schema other tools rely on).
+    let back: Summary = std::fs::read(&path)
+        .context("reading summary.json back")
+        .and_then(|b| serde_json::from_slice(&b).context("summary.json does not match its schema"))
+        .map_err(AppError::Output)?;
+    if back != summary {
+        return Err(AppError::Output(anyhow::anyhow!(
+            "summary.json does not read back into the summary written"
+        )));
+    }
+    println!("summary: {} (read back: identical)", path.display());
     let report = dgsph::report::write(&args.out).map_err(AppError::Output)?;
     println!("report: {}", report.display());
     Ok(if bad_input {

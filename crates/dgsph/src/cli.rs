@@ -233,6 +233,21 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
             effects.join("; ")
         }
     );
+    let config = scene.sim_config();
+    println!(
+        "  operators   {} pressure gradient, {}renormalised, {} Laplacian, DG Hessian {:?}",
+        match config.gradient {
+            sph_operators::GradientForm::Difference => "difference Σ V_j (p_j − p_i) ∇W_ij",
+            sph_operators::GradientForm::Symmetric => "symmetric Σ V_j (p_i + p_j) ∇W_ij",
+        },
+        if config.renormalise { "" } else { "not " },
+        if config.consistent_laplacian {
+            "linear-consistent"
+        } else {
+            "Morris"
+        },
+        config.dg_hessian
+    );
     println!(
         "  solver      {} (tolerance {:e})",
         scene.solver.name(),
