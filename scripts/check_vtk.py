@@ -12,8 +12,10 @@ import os
 import sys
 import xml.etree.ElementTree as ET
 
-import vtk
-from vtk.util.numpy_support import vtk_to_numpy
+# Only the XML readers: no rendering libraries (libGL, X11) are needed.
+from vtkmodules.vtkCommonCore import vtkVersion
+from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+from vtkmodules.util.numpy_support import vtk_to_numpy
 
 FIELDS = {"velocity": 3, "pressure": 1, "density": 1, "det_f": 1, "free_surface": 1, "wall": 1}
 
@@ -26,7 +28,7 @@ def check_run(directory, pvd):
     datasets = ET.parse(os.path.join(directory, pvd)).getroot().iter("DataSet")
     frames = 0
     for ds in datasets:
-        reader = vtk.vtkXMLPolyDataReader()
+        reader = vtkXMLPolyDataReader()
         reader.SetFileName(os.path.join(directory, ds.get("file")))
         reader.Update()
         data = reader.GetOutput()
@@ -53,7 +55,7 @@ def main():
         sys.exit(f"no .pvd in {directory}")
     for pvd in pvds:
         run, frames, points = check_run(directory, pvd)
-        print(f"{run}: {frames} frames of {points} points read by VTK {vtk.vtkVersion.GetVTKVersion()}: ok")
+        print(f"{run}: {frames} frames of {points} points read by VTK {vtkVersion.GetVTKVersion()}: ok")
 
 
 if __name__ == "__main__":
