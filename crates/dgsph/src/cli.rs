@@ -235,7 +235,7 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
     );
     let config = scene.sim_config();
     println!(
-        "  operators   {} pressure gradient, {}renormalised, {} Laplacian, DG Hessian {:?}",
+        "  operators   {} pressure gradient, {}renormalised, {} Laplacian, DG Hessian {}",
         match config.gradient {
             sph_operators::GradientForm::Difference => "difference Σ V_j (p_j − p_i) ∇W_ij",
             sph_operators::GradientForm::Symmetric => "symmetric Σ V_j (p_i + p_j) ∇W_ij",
@@ -246,7 +246,10 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
         } else {
             "Morris"
         },
-        config.dg_hessian
+        match config.dg_hessian {
+            sph_operators::HessianForm::Eq25 => "eq25",
+            sph_operators::HessianForm::QuadraticFit => "quadratic_fit",
+        }
     );
     println!(
         "  solver      {} (tolerance {:e})",

@@ -43,7 +43,7 @@ impl Criterion {
 pub struct Check {
     /// Case the check belongs to, e.g. `"kernels"` or `"elliptical_drop"`.
     pub case: String,
-    /// What is compared, e.g. `"quintic 3d ∫W dV"`.
+    /// What is compared, e.g. `"quintic_spline 3D ∫W dV"`.
     pub name: String,
     /// Measured value.
     pub value: f64,

@@ -22,7 +22,7 @@ fn dim_checks<D: Dim>(out: &mut Vec<Check>) {
         let k = kind.build::<D>(1.0);
         out.push(Check::new(
             "kernels",
-            format!("{kind:?} {} ∫W dV", D::NAME),
+            format!("{} {}D ∫W dV", kind.name(), D::DIM),
             integrate_radial::<D>(&k),
             1.0,
             1e-8,

@@ -136,7 +136,7 @@ pub struct CavitySpec {
     /// Whether the Ghia deviation is a pass/fail check (it is always measured). Default true.
     pub check_ghia: Option<bool>,
     /// How the walls' no-penetration condition enters the projection: `"continuation"`
-    /// (default) or `"reflection"` (the condition of the runs before 2026-11-30), see
+    /// (default) or `"reflection"` (the older condition, kept for comparison), see
     /// [`WallCondition`].
     #[serde(default)]
     pub wall_condition: WallCondition,

@@ -62,7 +62,7 @@ pub enum WallCondition {
     /// the reflected normal velocity; the Shepard-extrapolated pressure has no kink to match it,
     /// and the SPH gradient straddling the wall blurs it, so part of a normal velocity survives
     /// each projection.
-    /// The condition of every cavity run before 2026-11-30; a scene selects it with
+    /// The older condition, kept for comparison; a scene selects it with
     /// `wall_condition = "reflection"`.
     Reflection,
 }

@@ -356,7 +356,7 @@ sph_core::dim_tests! {
         // makes that response several times weaker than Wendland C2's: 0.386 against 1.349 per
         // Δp² of displacement in 2D (ratio 3.5), 0.161 against 0.712 in 3D (ratio 4.4). That is
         // why a quintic cavity needs a larger shifting coefficient A than a Wendland one to
-        // keep particles off the walls (README, density study).
+        // keep particles off the walls (docs/validation.md, density study).
         let q = shifting_stiffness::<D>(KernelKind::QuinticSpline);
         let w = shifting_stiffness::<D>(KernelKind::WendlandC2);
         assert!(q > 0.0 && w > 0.0, "∇C must point back to the site: quintic {q}, Wendland {w}");

@@ -120,9 +120,9 @@ fn short_run_holds_d3() {
 /// only (fae4385) gave 0.0204 / 0.0213 / 0.0206: the gaps are within round-off-driven
 /// run-to-run spread.
 /// The density error here is set by the walls, the gauge incompatibility and shifting, not by
-/// the scheme's O(Δt²) volume error. See the README ("Lid-driven cavity").
+/// the scheme's O(Δt²) volume error. See docs/validation.md ("Lid-driven cavity").
 #[test]
-#[ignore = "paper's density ordering not reproduced; evidence in the doc comment and README"]
+#[ignore = "paper's density ordering not reproduced; evidence in the doc comment and docs/validation.md"]
 fn dg_density_error_below_euler_and_pc() {
     let mut s = scene(2, 0.05, 0.01, 400.0, true);
     s.t_end = 2.0;

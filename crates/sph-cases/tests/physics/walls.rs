@@ -6,7 +6,7 @@
 //! * a divergence-free field tangential to the walls (a Taylor–Green cell) must pass unchanged.
 //!
 //! `WallCondition::Continuation` (the default) meets the first two and converges on the third;
-//! `WallCondition::Reflection` (the condition before 2026-11-30) meets the third closely and
+//! `WallCondition::Reflection` meets the third closely and
 //! fails the first two: that leak is the wall crossing of the cavity runs it was used for.
 
 use sph_cases::{Scene, cavity};
