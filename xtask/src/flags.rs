@@ -22,6 +22,19 @@ pub enum Command {
     Run(Box<dgsph::cli::RunArgs>),
     /// Rebuild report.md and its figures from an output directory (`dgsph report`).
     Report(dgsph::cli::ReportArgs),
+    /// The largest stable time step of each scheme (drop, Re 400 cavity, dam break).
+    DtLimit(DtLimitArgs),
+}
+
+/// Flags of `cargo xtask dt-limit`.
+#[derive(Debug, clap::Args)]
+pub struct DtLimitArgs {
+    /// `quick` (the scenes' `[quick]` sizes) or `full`.
+    #[arg(long, value_enum, default_value = "quick")]
+    pub preset: Preset,
+    /// Output directory for dt_limit.md and dt_limit.csv.
+    #[arg(long, default_value = "target/dt-limit")]
+    pub out: PathBuf,
 }
 
 /// Which scenes `validate` runs.

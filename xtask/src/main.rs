@@ -6,9 +6,11 @@
 //!   `dgsph` exit codes (0 all passed, 1 a check failed, 2 bad input, 3 a run failed, 4 an
 //!   output error).
 //! * `cargo xtask validate --sweep` runs the accuracy-against-cost sweep ([`sweep`]).
+//! * `cargo xtask dt-limit` finds each scheme's largest stable time step ([`dt_limit`]).
 //! * `cargo xtask run SCENE.toml` and `cargo xtask report DIR` are `dgsph run` and
 //!   `dgsph report`.
 
+mod dt_limit;
 mod flags;
 mod sweep;
 mod validate;
@@ -26,6 +28,7 @@ fn main() -> ExitCode {
     let result = rayon::scope(|_| match cli.command {
         flags::Command::Validate(args) => validate::run(&args),
         flags::Command::Run(args) => dgsph::cli::run(&args),
+        flags::Command::DtLimit(args) => dt_limit::run(&args),
         flags::Command::Report(args) => dgsph::report::write(&args.dir)
             .map(|p| {
                 println!("report: {}", p.display());

@@ -137,7 +137,7 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
         match outcome {
             Ok(o) => {
                 println!("  [{:.1} s]", o.wall_s);
-                failed_runs += o.failed_runs;
+                failed_runs += o.unexpected_failed_runs;
                 checks.extend(o.checks.into_iter().map(|c| (c, o.wall_s)));
                 runs.extend(o.runs);
             }

@@ -115,15 +115,27 @@ pub fn print_checks(checks: &[sph_cases::Check]) -> bool {
             c.name,
             c.value,
             c.criterion.describe(),
-            if c.passed() { "pass" } else { "FAIL" }
+            c.outcome()
         );
     }
-    let failed = checks.iter().filter(|c| !c.passed()).count();
+    let failed = checks.iter().filter(|c| c.fails()).count();
+    let known = checks.iter().filter(|c| c.known_failure.is_some()).count();
     println!(
-        "\n{} checks: {} passed, {} failed",
+        "\n{} checks: {} passed, {} failed{}",
         checks.len(),
-        checks.len() - failed,
-        failed
+        checks.iter().filter(|c| c.passed()).count(),
+        failed,
+        if known > 0 {
+            format!(
+                ", {} of {known} declared known failures failed as declared",
+                checks
+                    .iter()
+                    .filter(|c| c.known_failure.is_some() && !c.passed())
+                    .count()
+            )
+        } else {
+            String::new()
+        }
     );
     failed == 0
 }

@@ -429,6 +429,7 @@ pub fn write(dir: &Path) -> anyhow::Result<PathBuf> {
         checks_table(&mut md, s);
     }
     let all: Vec<&RunRecord> = runs.values().flatten().collect();
+    stability_table(&mut md, &all);
     runs_table(&mut md, &all);
     md += "## Figures\n\nRegenerated from the CSV files in this directory.\n\n";
     for (name, group) in &runs {
@@ -440,12 +441,26 @@ pub fn write(dir: &Path) -> anyhow::Result<PathBuf> {
 }
 
 fn checks_table(md: &mut String, s: &Summary) {
-    let failed = s.checks.iter().filter(|c| !c.pass).count();
+    let failed = s
+        .checks
+        .iter()
+        .filter(|c| !c.pass && c.known_failure.is_none())
+        .count();
+    let known = s
+        .checks
+        .iter()
+        .filter(|c| !c.pass && c.known_failure.is_some())
+        .count();
     let _ = writeln!(
         md,
-        "## Checks: {} of {} pass{}\n",
-        s.checks.len() - failed,
+        "## Checks: {} of {} pass{}{}\n",
+        s.checks.iter().filter(|c| c.pass).count(),
         s.checks.len(),
+        if known > 0 {
+            format!(", {known} known failures (declared in their scenes, reasons below)")
+        } else {
+            String::new()
+        },
         if failed > 0 { " — **FAILURES**" } else { "" }
     );
     md.push_str(
@@ -459,7 +474,12 @@ fn checks_table(md: &mut String, s: &Summary) {
             c.check,
             c.value.map_or("—".to_string(), |v| format!("{v:.6e}")),
             c.criterion.describe(),
-            if c.pass { "pass" } else { "**FAIL**" },
+            match (c.pass, &c.known_failure) {
+                (true, None) => "pass".to_string(),
+                (false, None) => "**FAIL**".to_string(),
+                (false, Some(why)) => format!("known failure: {why}"),
+                (true, Some(_)) => "pass (a declared known failure passed)".to_string(),
+            },
             c.source,
         );
     }
@@ -490,6 +510,63 @@ fn runs_table(md: &mut String, runs: &[&RunRecord]) {
             if per > 0.0 { n / per } else { 0.0 },
             r.solver_iters_mean,
             r.status.replace('|', "/"),
+        );
+    }
+    md.push('\n');
+}
+
+/// Case × scheme: how far each run got and how well it held together.
+fn stability_table(md: &mut String, runs: &[&RunRecord]) {
+    if runs.is_empty() {
+        return;
+    }
+    md.push_str(
+        "## Stability
+
+Reached t and step; max interior density error \
+         (|ρ̂/ρ̂_lattice − 1|, interior: no free-surface particle in the support); volume change \
+         (drops: max |ΔV/V₀|, second moments); max |u|/U (U: initial largest speed, √(gH) for \
+         water at rest, the lid speed for cavities); penetrations; solver iterations per step; \
+         wall time.\n\n| run | scheme | reached t | step | density error | volume change | \
+         max \\|u\\|/U | penetrations | iters/step | wall (s) | status |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n",
+    );
+    let fmt = |r: &RunRecord, k: &str| {
+        r.results
+            .get(k)
+            .copied()
+            .flatten()
+            .map_or("—".to_string(), |v| format!("{v:.3e}"))
+    };
+    for r in runs {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.4} | {} | {} | {} | {} | {} | {:.1} | {:.1} | {} |",
+            r.name,
+            r.scheme,
+            r.t,
+            r.step,
+            fmt(r, "density_error_max"),
+            fmt(r, "volume_change_max"),
+            fmt(r, "max_speed_ratio"),
+            r.results
+                .get("max_wall_penetrations")
+                .copied()
+                .flatten()
+                .map_or("—".to_string(), |v| format!("{v:.0}")),
+            r.solver_iters_mean,
+            r.wall_s,
+            if r.status == "completed" {
+                "completed".to_string()
+            } else {
+                r.status
+                    .split(';')
+                    .next()
+                    .unwrap_or("")
+                    .chars()
+                    .take(80)
+                    .collect::<String>()
+                    .replace('|', "/")
+            },
         );
     }
     md.push('\n');

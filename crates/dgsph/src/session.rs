@@ -76,6 +76,8 @@ pub struct SceneOutcome {
     pub runs: Vec<RunRecord>,
     /// Runs that stopped at a failed step.
     pub failed_runs: usize,
+    /// Of those, the runs the scene did not declare a known failure (its `completed` check).
+    pub unexpected_failed_runs: usize,
     /// Wall time of the scene.
     pub wall_s: f64,
 }
@@ -290,14 +292,10 @@ pub fn run_scene(
                     files.csv_path().display()
                 );
                 outcome.failed_runs += 1;
-                outcome.checks.push(Check::new(
-                    scene.case.name(),
-                    format!("{run} run completes"),
-                    0.0,
-                    1.0,
-                    0.0,
-                    e.to_string(),
-                ));
+                let check =
+                    sph_cases::run::run_completes_check(&scene, scheme, &run, &e.to_string());
+                outcome.unexpected_failed_runs += usize::from(check.known_failure.is_none());
+                outcome.checks.push(check);
                 continue;
             }
             Err(e) => {
@@ -309,6 +307,11 @@ pub fn run_scene(
         finished.map_err(AppError::Output)?;
         if let Some(e) = &r.failure {
             outcome.failed_runs += 1;
+            outcome.unexpected_failed_runs += usize::from(
+                sph_cases::run::run_completes_check(&scene, scheme, &run, "")
+                    .known_failure
+                    .is_none(),
+            );
             eprintln!(
                 "  {run}: FAILED: {e} (rows so far in {})",
                 files.csv_path().display()

@@ -103,6 +103,13 @@ pub trait Case<D: Dim>: Send {
         10
     }
 
+    /// The velocity scale `U` of the `max_speed_ratio` result. Default `None`: the run loop
+    /// takes the initial largest fluid speed, or `√(|g| H)` for fluid starting at rest under
+    /// gravity (`H`: the fluid's initial height along `g`).
+    fn velocity_scale(&self) -> Option<f64> {
+        None
+    }
+
     /// Called once with the initial state, before a resumed run restores its checkpoint.
     fn start(&mut self, _sim: &Simulation<D>) -> Result<(), CaseError> {
         Ok(())

@@ -238,6 +238,10 @@ impl<D: Dim> CavityCase<D> {
 }
 
 impl<D: Dim> Case<D> for CavityCase<D> {
+    fn velocity_scale(&self) -> Option<f64> {
+        self.scene.cavity.as_ref().map(|c| c.lid_speed.abs())
+    }
+
     fn setup(&self) -> Result<Setup<D>, CaseError> {
         setup::<D>(&self.scene)
     }

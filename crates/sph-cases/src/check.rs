@@ -51,6 +51,10 @@ pub struct Check {
     pub criterion: Criterion,
     /// Where the reference or bound comes from.
     pub source: String,
+    /// Set when the scene declares this check a known failure (why, in a sentence): it is
+    /// reported, as failing or passing, but does not fail a validation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub known_failure: Option<String>,
 }
 
 impl Check {
@@ -72,6 +76,7 @@ impl Check {
                 tolerance,
             },
             source: source.into(),
+            known_failure: None,
         }
     }
 
@@ -89,6 +94,7 @@ impl Check {
             value,
             criterion: Criterion::AtMost { bound },
             source: source.into(),
+            known_failure: None,
         }
     }
 
@@ -106,6 +112,23 @@ impl Check {
             value,
             criterion: Criterion::AtLeast { bound },
             source: source.into(),
+            known_failure: None,
+        }
+    }
+
+    /// True if the check fails and is not a declared known failure: what fails a validation.
+    pub fn fails(&self) -> bool {
+        !self.passed() && self.known_failure.is_none()
+    }
+
+    /// `pass`, `FAIL`, or, for a declared known failure, `known failure` / `pass (known
+    /// failure passed)`.
+    pub fn outcome(&self) -> &'static str {
+        match (self.passed(), self.known_failure.is_some()) {
+            (true, false) => "pass",
+            (false, false) => "FAIL",
+            (false, true) => "known failure",
+            (true, true) => "pass (known failure passed)",
         }
     }
 
@@ -137,5 +160,9 @@ mod tests {
         assert!(ratio.passed() && ratio.value == 88.8);
         assert!(!Check::at_least("c", "n", f64::NAN, 5.0, "s").passed());
         assert_eq!(ratio.criterion.describe(), "≥ 5");
+        let mut known = Check::at_most("c", "n", 1.0, 0.0, "s");
+        assert!(known.fails());
+        known.known_failure = Some("why".into());
+        assert!(!known.passed() && !known.fails() && known.outcome() == "known failure");
     }
 }

@@ -127,6 +127,10 @@ impl<D: Dim> Case<D> for DamBreakCase {
         c
     }
 
+    fn start(&mut self, sim: &Simulation<D>) -> Result<(), CaseError> {
+        Case::<D>::start(&mut self.flow, sim)
+    }
+
     fn observe(
         &mut self,
         sim: &Simulation<D>,

@@ -67,7 +67,17 @@ pub struct DropCase {
     initial: Option<(f64, f64)>,
     /// The last record of a full-size step: (t, moments, hull, semi-axes moments, extents, p_c).
     last_full: Option<LastFull>,
+    /// Over the full-size steps: largest relative semi-axis error (second moments), largest
+    /// |ΔV/V₀| (second moments), and the first time the semi-axis error exceeded
+    /// [`DEPARTURE`].
+    worst_axis: f64,
+    worst_volume: f64,
+    departed: f64,
 }
+
+/// Relative semi-axis error (second moments) at which a long drop counts as departed from the
+/// exact solution.
+pub const DEPARTURE: f64 = 0.05;
 
 #[derive(Clone, Copy)]
 struct LastFull {
@@ -88,6 +98,9 @@ impl DropCase {
             centre: 0,
             initial: None,
             last_full: None,
+            worst_axis: 0.0,
+            worst_volume: 0.0,
+            departed: f64::NAN,
         }
     }
 }
@@ -185,6 +198,14 @@ impl<D: Dim> Case<D> for DropCase {
             exact.p_c,
         ]);
         if !short {
+            let axis = (m.semi_axes[0] / exact.a - 1.0)
+                .abs()
+                .max((m.semi_axes[1] / exact.b - 1.0).abs());
+            self.worst_axis = self.worst_axis.max(axis);
+            self.worst_volume = self.worst_volume.max((m.measure / m0 - 1.0).abs());
+            if axis > DEPARTURE && self.departed.is_nan() {
+                self.departed = sim.t;
+            }
             self.last_full = Some(LastFull {
                 t: sim.t,
                 moments: m.measure,
@@ -218,6 +239,9 @@ impl<D: Dim> Case<D> for DropCase {
                 ("p_centre", l.p_centre),
                 ("p_centre_exact", e.p_c),
                 ("p_centre_error", l.p_centre / e.p_c - 1.0),
+                ("semi_axis_error_max", self.worst_axis),
+                ("volume_change_max", self.worst_volume),
+                ("t_departure", self.departed),
             ] {
                 results.insert(name.into(), v);
             }
@@ -231,6 +255,11 @@ impl<D: Dim> Case<D> for DropCase {
     fn checks(&self, scheme: SchemeKind, _label: &str, r: &Results) -> Vec<Check> {
         let case = self.scene.case.name();
         let get = |k: &str| r.get(k).copied().unwrap_or(f64::NAN);
+        // The paper's criteria hold for the paper's run length; a longer run (the hard suite's
+        // long drop) is judged by its scene's checks on the departure results instead.
+        if get("t_last_full_step") > self.exact.t_max() {
+            return Vec::new();
+        }
         let label = format!("{} t={:.4}", scheme.name(), get("t_last_full_step"));
         checks(case, D::DIM, scheme, &label, r)
     }

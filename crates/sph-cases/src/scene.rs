@@ -1218,6 +1218,12 @@ impl Validator<'_> {
             {
                 return self.bad(format!("check[{i}]"), "min exceeds max");
             }
+            if c.known_failure
+                .as_ref()
+                .is_some_and(|w| w.trim().is_empty())
+            {
+                return self.bad(format!("check[{i}].known_failure"), "must say why");
+            }
             if let Some(k) = c.schemes.iter().find(|k| !self.scene.schemes.contains(k)) {
                 return self.bad(
                     format!("check[{i}].schemes"),

@@ -37,14 +37,17 @@ const SCENES: [(&str, &str); 14] = [
         "cavity_re1000",
         include_str!("../../../cases/cavity_re1000.toml"),
     ),
-    ("dam_break", include_str!("../../../cases/dam_break.toml")),
+    (
+        "dam_break",
+        include_str!("../../../cases/hard/dam_break.toml"),
+    ),
     (
         "dam_break_3d",
-        include_str!("../../../cases/dam_break_3d.toml"),
+        include_str!("../../../cases/hard/dam_break_3d.toml"),
     ),
     (
         "drop_on_wall",
-        include_str!("../../../cases/drop_on_wall.toml"),
+        include_str!("../../../cases/hard/drop_on_wall.toml"),
     ),
     (
         "elliptical_drop",
@@ -64,7 +67,7 @@ const SCENES: [(&str, &str); 14] = [
     ),
     (
         "taylor_green",
-        include_str!("../../../cases/taylor_green.toml"),
+        include_str!("../../../cases/hard/taylor_green.toml"),
     ),
 ];
 

@@ -1,0 +1,187 @@
+//! `cargo xtask dt-limit`: the largest stable time step of each scheme, by bisection on the
+//! CFL number `C = U Δt / h` (`U`: the run's velocity scale, see `max_speed_ratio`), for the
+//! elliptical drop, the Re 400 cavity and the dam break (their quick sizes unless `--preset
+//! full`).
+//!
+//! A trial runs the scene with the trial `Δt` to a fixed end time and is **stable** when it
+//! reaches the end with no failed step (non-finite values, a solver that does not converge, a
+//! particle escaping the walls), no wall penetration, and speeds bounded by three times the
+//! velocity scale. The displacement limit of blow-up detection is raised to 10 h for these
+//! trials, so it does not cap `Δt` by itself. The search doubles `Δt` from the scene's value
+//! until a trial is unstable, then bisects five times; the result brackets the limit to within
+//! 1/32 of the first unstable step. Writes `dt_limit.md` and `dt_limit.csv` into `--out`.
+
+use crate::flags::DtLimitArgs;
+use anyhow::Context;
+use dgsph::session::{self, AppError, exit};
+use sph_cases::reference::References;
+use sph_cases::run::{MemorySink, RunControl};
+use sph_cases::{Scene, registry};
+use sph_integrators::SchemeKind;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The scenes searched: file, end time of every trial.
+const SCENES: [(&str, f64); 3] = [
+    ("cases/elliptical_drop.toml", 0.003),
+    ("cases/cavity_re400.toml", 2.0),
+    ("cases/hard/dam_break.toml", 1.5),
+];
+
+/// One trial: stable or not, and why not.
+fn trial(scene: &Scene, scheme: SchemeKind, dt: f64, refs: &References) -> (bool, String, f64) {
+    let mut s = scene.clone();
+    s.dt = dt;
+    s.schemes = vec![scheme];
+    s.limits.max_displacement = Some(10.0);
+    s.output.sample_every = Some(1);
+    let mut sink = MemorySink::default();
+    let t0 = std::time::Instant::now();
+    let run = registry::run_scheme(&s, scheme, refs, RunControl::default(), &mut sink);
+    let wall = t0.elapsed().as_secs_f64();
+    match run {
+        Err(e) => (false, format!("setup: {e}"), wall),
+        Ok(r) => {
+            let get = |k: &str| r.results.get(k).copied().unwrap_or(f64::NAN);
+            if let Some(e) = &r.failure {
+                (false, first_words(&e.to_string()), wall)
+            } else if get("max_wall_penetrations") > 0.0 {
+                (false, "wall penetration".into(), wall)
+            } else if get("max_speed_ratio").is_nan() || get("max_speed_ratio") > 3.0 {
+                (
+                    false,
+                    format!("max |u|/U = {:.2}", get("max_speed_ratio")),
+                    wall,
+                )
+            } else {
+                (true, String::new(), wall)
+            }
+        }
+    }
+}
+
+fn first_words(s: &str) -> String {
+    s.split(';').next().unwrap_or(s).chars().take(90).collect()
+}
+
+/// Velocity scale and smoothing length of a scene (for the CFL number).
+fn scale(scene: &Scene, refs: &References) -> f64 {
+    // One zero-length trial gives the run loop's velocity scale through max_speed_ratio.
+    let mut s = scene.clone();
+    s.t_end = s.dt;
+    s.schemes = vec![SchemeKind::Euler];
+    let mut sink = MemorySink::default();
+    registry::run_scheme(
+        &s,
+        SchemeKind::Euler,
+        refs,
+        RunControl::default(),
+        &mut sink,
+    )
+    .ok()
+    .map_or(f64::NAN, |r| {
+        let get = |k: &str| r.results.get(k).copied().unwrap_or(f64::NAN);
+        // max_speed_ratio = max_speed / U over one step; the initial speed is the scale for
+        // moving starts, √(gH) for fluid at rest, the lid speed for the cavity.
+        get("max_speed") / get("max_speed_ratio")
+    })
+}
+
+/// Runs the search; returns the exit code.
+pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
+    let refs = References::embedded();
+    let mut md = String::from(
+        "# Largest stable time step\n\n`cargo xtask dt-limit` (see `xtask/src/dt_limit.rs` for \
+         the stability criterion). C = U Δt / h.\n\n| scene | particles | scheme | stable Δt | \
+         C | first unstable Δt | C | why | trials | wall s |\n|---|---:|---|---:|---:|---:|---:|---|---:|---:|\n",
+    );
+    let mut csv =
+        String::from("scene,scheme,dt_stable,cfl_stable,dt_unstable,cfl_unstable,reason\n");
+    for (file, t_end) in SCENES {
+        let path = Path::new(file);
+        let scene = session::load_scene(path)?;
+        let mut scene = args.preset.apply(&scene);
+        scene.t_end = t_end;
+        let name = session::scene_stem(path);
+        let u = scale(&scene, refs);
+        let h = scene.h();
+        let (fluid, walls, _) =
+            registry::particle_counts(&scene, refs).map_err(|e| AppError::Input(e.into()))?;
+        for &scheme in &[
+            SchemeKind::Euler,
+            SchemeKind::PredictorCorrector,
+            SchemeKind::Dg,
+        ] {
+            let t0 = std::time::Instant::now();
+            let mut trials = 0;
+            let mut lo = scene.dt;
+            let (ok, why, _) = trial(&scene, scheme, lo, refs);
+            trials += 1;
+            if !ok {
+                let _ = writeln!(
+                    md,
+                    "| {name} | {} | {} | — | — | {lo:.3e} | {:.3} | {why} (at the scene's Δt) | {trials} | {:.0} |",
+                    fluid + walls,
+                    scheme.name(),
+                    u * lo / h,
+                    t0.elapsed().as_secs_f64()
+                );
+                continue;
+            }
+            let mut hi = f64::NAN;
+            let mut reason = String::new();
+            while hi.is_nan() && lo < scene.dt * 1024.0 {
+                let (ok, why, _) = trial(&scene, scheme, 2.0 * lo, refs);
+                trials += 1;
+                if ok {
+                    lo *= 2.0;
+                } else {
+                    hi = 2.0 * lo;
+                    reason = why;
+                }
+            }
+            if !hi.is_nan() {
+                for _ in 0..5 {
+                    let mid = 0.5 * (lo + hi);
+                    let (ok, why, _) = trial(&scene, scheme, mid, refs);
+                    trials += 1;
+                    if ok {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                        reason = why;
+                    }
+                }
+            }
+            let wall = t0.elapsed().as_secs_f64();
+            println!(
+                "{name} {}: stable Δt {lo:.3e} (C = {:.3}), unstable {hi:.3e}: {reason} [{trials} trials, {wall:.0} s]",
+                scheme.name(),
+                u * lo / h
+            );
+            let _ = writeln!(
+                md,
+                "| {name} | {} | {} | {lo:.3e} | {:.3} | {hi:.3e} | {:.3} | {reason} | {trials} | {wall:.0} |",
+                fluid + walls,
+                scheme.name(),
+                u * lo / h,
+                u * hi / h,
+            );
+            let _ = writeln!(
+                csv,
+                "{name},{},{lo},{},{hi},{},\"{}\"",
+                scheme.name(),
+                u * lo / h,
+                u * hi / h,
+                reason.replace('"', "'")
+            );
+        }
+    }
+    std::fs::create_dir_all(&args.out)
+        .and_then(|()| std::fs::write(args.out.join("dt_limit.md"), &md))
+        .and_then(|()| std::fs::write(args.out.join("dt_limit.csv"), &csv))
+        .with_context(|| format!("writing into {}", args.out.display()))
+        .map_err(AppError::Output)?;
+    println!("{}", args.out.join("dt_limit.md").display());
+    Ok(exit::OK)
+}
