@@ -9,7 +9,8 @@
 //! velocity scale. The displacement limit of blow-up detection is raised to 10 h for these
 //! trials, so it does not cap `Δt` by itself. The search doubles `Δt` from the scene's value
 //! until a trial is unstable, then bisects five times; the result brackets the limit to within
-//! 1/32 of the first unstable step. Writes `dt_limit.md` and `dt_limit.csv` into `--out`.
+//! 1/32 of the first unstable step. A trial has at least five full steps: when `Δt = T/5` is
+//! still stable the table says so (`≥`) instead of a limit. Writes `dt_limit.md` and `dt_limit.csv` into `--out`.
 
 use crate::flags::DtLimitArgs;
 use anyhow::Context;
@@ -130,7 +131,9 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
             }
             let mut hi = f64::NAN;
             let mut reason = String::new();
-            while hi.is_nan() && lo < scene.dt * 1024.0 {
+            // At least five full steps per trial: beyond that Δt says nothing about stability.
+            let cap = scene.t_end / 5.0;
+            while hi.is_nan() && 2.0 * lo <= cap {
                 let (ok, why, _) = trial(&scene, scheme, 2.0 * lo, refs);
                 trials += 1;
                 if ok {
@@ -152,6 +155,9 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
                         reason = why;
                     }
                 }
+            }
+            if hi.is_nan() {
+                reason = format!("stable up to the five-step cap T/5 = {cap:.3e}");
             }
             let wall = t0.elapsed().as_secs_f64();
             println!(

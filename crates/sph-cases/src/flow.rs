@@ -260,7 +260,14 @@ impl<D: Dim> Case<D> for FlowCase {
         }
         for (name, v) in [
             ("isolated_particles_max", self.isolated_max),
-            ("kinetic_energy_change", self.ke_end / self.ke0 - 1.0),
+            (
+                "kinetic_energy_change",
+                if self.ke0 > 0.0 {
+                    self.ke_end / self.ke0 - 1.0
+                } else {
+                    f64::NAN
+                },
+            ),
             ("ke_decay_error_max", self.ke_error_max),
             ("hydrostatic_error", self.hydro_error),
             ("hydrostatic_error_max", self.hydro_error_max),

@@ -68,7 +68,7 @@ pub enum StepError {
     /// A fluid particle would end deeper in wall material than the walls are thick: it has passed
     /// through a wall. The particles are left as they were before the step.
     #[error(
-        "step {step} (t = {t:.6e}): fluid particle {particle} would end {depth:.3e} deep in a wall,          past its {thickness:.3e} thick wall layers (it has passed through the wall)"
+        "step {step} (t = {t:.6e}): fluid particle {particle} would end {depth:.3e} deep in a wall, past its {thickness:.3e} thick wall layers (it has passed through the wall)"
     )]
     Escaped {
         /// Step number.
