@@ -1,5 +1,7 @@
-//! One full time step of each scheme on the paper's drops (`integrators/<scheme>/<dim>/<n>`),
-//! diagnostics off: the cost of DG relative to Euler and PC. The timed step is the third of the
+//! One full time step of each scheme on the paper's drops (`integrators/<scheme>/<dim>/<n>`)
+//! and on the Re 100 lid-driven cavity at 100² and 200² with both solvers
+//! (`integrators/cavity_<solver>/<scheme>/<n>`), diagnostics off: the cost of DG relative to
+//! Euler and PC, and of a whole step at the sizes users run. The timed step is the third of the
 //! run (two untimed steps first): step 1 from the initial field is not representative (Euler's
 //! PPE source ∇·u* is ≈ 0 there, so its solve chases a relative tolerance on a tiny vector).
 
@@ -48,7 +50,60 @@ fn bench<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     group.finish();
 }
 
+/// The Re 100 cavity (`cases/cavity_re100.toml`) at spacing `dx` with `solver`.
+fn cavity(c: &mut Criterion, dx: f64, solver: &str) {
+    let mut group = c.benchmark_group("integrators");
+    group.sample_size(10);
+    let text = include_str!("../../cases/cavity_re100.toml");
+    let mut scene = sph_cases::registry::parse_scene("cavity_re100", text).unwrap();
+    scene.dx = dx;
+    scene.dt = 0.25 * dx;
+    scene.solver = match solver {
+        "bicgstab_amg" => sph_pressure::SolverKind::BicgstabAmg,
+        _ => sph_pressure::SolverKind::BicgstabJacobi,
+    };
+    let refs = sph_cases::reference::References::embedded();
+    for kind in SchemeKind::ALL {
+        let setup = || {
+            let mut sim = sph_cases::registry::case::<D2>(&scene, kind, refs)
+                .setup()
+                .unwrap()
+                .simulation()
+                .unwrap();
+            for _ in 0..2 {
+                Scheme::new(kind).step(&mut sim, scene.dt).unwrap();
+            }
+            sim
+        };
+        let n = setup().particles.len();
+        group.bench_function(
+            BenchmarkId::new(format!("cavity_{solver}/{}", kind.name()), n),
+            |b| {
+                b.iter_batched(
+                    setup,
+                    |mut sim| {
+                        black_box(
+                            Scheme::new(kind)
+                                .step(&mut sim, scene.dt)
+                                .unwrap()
+                                .solve
+                                .iterations,
+                        )
+                    },
+                    BatchSize::LargeInput,
+                )
+            },
+        );
+    }
+    group.finish();
+}
+
 fn integrators(c: &mut Criterion) {
+    for dx in [0.01, 0.005] {
+        for solver in ["bicgstab_jacobi", "bicgstab_amg"] {
+            cavity(c, dx, solver);
+        }
+    }
     bench::<D2>(c, CaseKind::EllipticalDrop, 0.025);
     bench::<D2>(c, CaseKind::EllipticalDrop, 0.0125);
     bench::<D3>(c, CaseKind::SpheroidDrop, 0.05);
