@@ -165,13 +165,20 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
                 scheme.name(),
                 u * lo / h
             );
+            let unstable = if hi.is_nan() {
+                ("—".to_string(), "—".to_string())
+            } else {
+                (format!("{hi:.3e}"), format!("{:.3}", u * hi / h))
+            };
             let _ = writeln!(
                 md,
-                "| {name} | {} | {} | {lo:.3e} | {:.3} | {hi:.3e} | {:.3} | {reason} | {trials} | {wall:.0} |",
+                "| {name} | {} | {} | {lo:.3e} | {:.3} | {} | {} | {} | {trials} | {wall:.0} |",
                 fluid + walls,
                 scheme.name(),
                 u * lo / h,
-                u * hi / h,
+                unstable.0,
+                unstable.1,
+                reason.replace('|', "\\|"),
             );
             let _ = writeln!(
                 csv,
