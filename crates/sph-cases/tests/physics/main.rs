@@ -4,6 +4,7 @@ mod cavity;
 mod drop_runs;
 mod effects;
 mod flows;
+mod measures;
 mod section3;
 mod step_one;
 mod support;
