@@ -1,6 +1,12 @@
 //! Shared fixtures of the dgsph criterion benches: seeded, lattice-like particle sets of a given
 //! size with the paper's resolution ratio `h = 1.3 dx` and the quintic support `3h`.
 
+/// hypre through FFI, for the multigrid comparison: the workspace's only unsafe code, behind
+/// the `hypre` feature.
+#[cfg(feature = "hypre")]
+#[allow(unsafe_code)]
+pub mod hypre;
+
 use sph_cases::{CaseKind, Scene};
 use sph_core::testing::{SplitMix64, lattice};
 use sph_core::{Dim, VectorOps};
