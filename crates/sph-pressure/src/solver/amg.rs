@@ -103,14 +103,28 @@ struct DenseLu {
 }
 
 impl DenseLu {
-    fn factor(&mut self, a: &Csr) {
+    /// Factors `a`, or `a + α 1 1ᵀ` with `α = tr(a)/n²` if `singular` (its null space is the
+    /// constants: the rank-one term makes it regular, and for a compatible right-hand side the
+    /// solution is the one with zero sum; a 1×1 or small singular level has no pivot that
+    /// round-off would reveal).
+    fn factor(&mut self, a: &Csr, singular: bool) {
         let n = a.nrows();
         self.n = n;
         self.lu.clear();
         self.lu.resize(n * n, 0.0);
+        let mut trace = 0.0;
         for i in 0..n {
             for k in a.offsets[i]..a.offsets[i + 1] {
                 self.lu[i * n + a.cols[k] as usize] += a.values[k];
+                if a.cols[k] as usize == i {
+                    trace += a.values[k];
+                }
+            }
+        }
+        if singular && n > 0 {
+            let alpha = trace / (n * n) as f64;
+            for v in &mut self.lu {
+                *v += alpha;
             }
         }
         self.perm.clear();
@@ -187,6 +201,8 @@ pub(crate) struct Amg {
     dense_idx: Vec<usize>,
     dense_rows: Csr,
     in_gauge: Vec<bool>,
+    /// Every coupled row of the fine level sums to zero: constants span the null space.
+    singular: bool,
     strong: Vec<bool>,
     marker: Vec<usize>,
     ap: Csr,
@@ -208,14 +224,16 @@ impl Amg {
         if self.levels.is_empty() {
             self.levels.push(Level::default());
         }
-        // Dense nodes: rows far longer than the mean (a gauge's border row). They are decoupled
+        // Dense nodes: rows over 4× longer than the mean or full (a gauge's border row; SPH
+        // neighbour counts vary by about 2× between the bulk and a surface). They are decoupled
         // from the hierarchy: level 0 drops their columns and keeps only their diagonal, so
         // the multigrid sees the singular block M alone; `apply` restores the coupling.
         let mean_len = a.cols.len() as f64 / n.max(1) as f64;
         self.dense.clear();
-        self.dense.extend(
-            (0..n).map(|i| (a.offsets[i + 1] - a.offsets[i]) as f64 > 8.0 * mean_len + 64.0),
-        );
+        self.dense.extend((0..n).map(|i| {
+            let len = a.offsets[i + 1] - a.offsets[i];
+            len as f64 > 4.0 * mean_len + 16.0 || (n > COARSE_MAX && len == n)
+        }));
         self.dense_idx.clear();
         self.dense_rows.clear(n);
         self.in_gauge.clear();
@@ -258,6 +276,18 @@ impl Amg {
                 l0.a.offsets.push(l0.a.cols.len());
             }
         }
+        // Singular: every row with off-diagonal entries sums to zero (round-off aside); rows
+        // without (Dirichlet, dense) have no aggregate and never reach the coarse levels.
+        {
+            let l0 = &self.levels[0];
+            self.singular = (0..n).all(|i| {
+                let row = l0.a.offsets[i]..l0.a.offsets[i + 1];
+                let (sum, abs) = l0.a.values[row.clone()]
+                    .iter()
+                    .fold((0.0, 0.0), |(s, a), v| (s + v, a + v.abs()));
+                row.len() <= 1 || sum.abs() <= 1e-8 * abs
+            });
+        }
         let mut depth = 1;
         loop {
             let lvl = depth - 1;
@@ -280,7 +310,7 @@ impl Amg {
         self.depth = depth;
         let last = &self.levels[depth - 1];
         if last.a.nrows() <= 2 * COARSE_MAX {
-            self.coarse.factor(&last.a);
+            self.coarse.factor(&last.a, self.singular);
         } else {
             self.coarse.n = 0;
         }
