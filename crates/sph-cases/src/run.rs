@@ -452,6 +452,9 @@ pub fn run_scheme<D: Dim>(
             && (k % n.max(1) == 0 || k == last)
         {
             sink.checkpoint(&sim.checkpoint(&control.checkpoint_meta))?;
+            // What the solver keeps between steps is not in the checkpoint: start it afresh,
+            // as a run resumed from this checkpoint will.
+            sim.invalidate_solver_setup();
         }
         sink.progress(k, sim.t, scene.t_end);
     }

@@ -320,6 +320,7 @@ impl<D: Dim> Simulation<D> {
         self.particles = particles;
         self.t = checkpoint.t;
         self.step = checkpoint.step;
+        self.invalidate_solver_setup();
         Ok(())
     }
 }

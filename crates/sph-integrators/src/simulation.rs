@@ -3,7 +3,7 @@ use crate::walls::{WallError, Walls};
 use sph_core::{CoreError, Dim, MatrixOps, ParticleSet, Periodic, VectorOps};
 use sph_kernels::{AnyKernel, Kernel};
 use sph_neighbors::{AnySearch, NeighborList, NeighborSearch};
-use sph_pressure::{AnySolver, CsrMatrix, MeanZeroGauge};
+use sph_pressure::{AnySolver, CsrMatrix, LinearSolver, MeanZeroGauge};
 
 /// A running simulation: the particles plus everything the schemes share (kernel, neighbour
 /// search and lists, linear solver, scratch buffers). Buffers are allocated on the first step
@@ -223,6 +223,13 @@ impl<D: Dim> Simulation<D> {
     /// constant null space.
     pub fn gauge_multiplier(&self) -> f64 {
         self.engine.gauge.last_multiplier
+    }
+
+    /// Forgets the set-up work the linear solver keeps between steps (the AMG hierarchy), so
+    /// the next step solves as a simulation restored from a checkpoint of this state would.
+    /// The run loop calls it after every checkpoint; [`Simulation::restore`] calls it too.
+    pub fn invalidate_solver_setup(&mut self) {
+        self.engine.solver.invalidate_setup();
     }
 
     /// The configuration.

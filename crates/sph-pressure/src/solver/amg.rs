@@ -203,6 +203,8 @@ pub(crate) struct Amg {
     in_gauge: Vec<bool>,
     /// Every coupled row of the fine level sums to zero: constants span the null space.
     singular: bool,
+    /// The dense rows the coarse levels were built with.
+    built_dense: Vec<usize>,
     strong: Vec<bool>,
     marker: Vec<usize>,
     ap: Csr,
@@ -219,7 +221,12 @@ impl Amg {
     }
 
     /// Builds the hierarchy for `a`, whose inverse diagonal (all finite) is `inv_diag`.
-    pub(crate) fn setup(&mut self, a: &CsrSystem<'_>, inv_diag: &[f64]) {
+    ///
+    /// With `reuse`, only the fine level is rebuilt from `a` if the coarse levels of the last
+    /// full setup fit (same number of unknowns, same dense rows): the V-cycle then smooths with
+    /// the new matrix and corrects with the old coarse spaces. Returns whether the whole
+    /// hierarchy was built.
+    pub(crate) fn setup(&mut self, a: &CsrSystem<'_>, inv_diag: &[f64], reuse: bool) -> bool {
         let n = a.n();
         if self.levels.is_empty() {
             self.levels.push(Level::default());
@@ -288,6 +295,17 @@ impl Amg {
                 row.len() <= 1 || sum.abs() <= 1e-8 * abs
             });
         }
+        // Reuse: keep the coarse levels (prolongations, Galerkin matrices, coarsest LU) of the
+        // last full setup when they were built for the same unknowns and dense rows.
+        if reuse
+            && self.depth > 1
+            && self.levels[0].p.nrows() == n
+            && self.built_dense == self.dense_idx
+        {
+            Self::prepare_level(&mut self.levels[0]);
+            return false;
+        }
+        self.built_dense.clone_from(&self.dense_idx);
         let mut depth = 1;
         loop {
             let lvl = depth - 1;
@@ -320,6 +338,7 @@ impl Amg {
             l.b.resize(m, 0.0);
             l.res.resize(m, 0.0);
         }
+        true
     }
 
     /// Inverse diagonal and smoothing weight of a level.

@@ -14,6 +14,8 @@ pub struct BiCgStab {
     precond: Preconditioner,
     state: PrecondState,
     work: [Vec<f64>; 7],
+    /// The warm start, kept for a retry with a fresh AMG hierarchy.
+    x0: Vec<f64>,
 }
 
 impl BiCgStab {
@@ -22,12 +24,19 @@ impl BiCgStab {
         self.state.amg_shape()
     }
 
+    /// Whether the last solve used a kept AMG hierarchy.
+    #[cfg(test)]
+    pub(crate) fn reused_setup(&self) -> bool {
+        self.state.reused()
+    }
+
     /// A solver with the given preconditioner.
     pub fn new(precond: Preconditioner) -> Self {
         Self {
             precond,
             state: PrecondState::default(),
             work: Default::default(),
+            x0: Vec::new(),
         }
     }
 }
@@ -74,9 +83,7 @@ impl LinearSolver for BiCgStab {
         params: &SolveParams,
     ) -> Result<SolveInfo, SolveError> {
         let t0 = Instant::now();
-        let name = self.name();
-        let n = a.n();
-        assert_eq!(x.len(), n);
+        assert_eq!(x.len(), a.n());
         let bnorm = dot(a.rhs, a.rhs).sqrt();
         if bnorm == 0.0 {
             x.fill(0.0);
@@ -87,7 +94,45 @@ impl LinearSolver for BiCgStab {
                 setup_seconds: 0.0,
             });
         }
-        self.state.setup(self.precond, a)?;
+        // AMG keeps its hierarchy between solves (see `PrecondState::setup`); a solve that
+        // fails with a kept hierarchy is repeated from the same warm start with a fresh one.
+        let amg = self.precond == Preconditioner::Amg;
+        if amg {
+            self.x0.clear();
+            self.x0.extend_from_slice(x);
+        }
+        self.state.setup(self.precond, a, true)?;
+        let mut result = self.iterate(a, x, params, bnorm, t0);
+        if amg && result.is_err() && self.state.reused() {
+            x.copy_from_slice(&self.x0);
+            self.state.invalidate();
+            self.state.setup(self.precond, a, false)?;
+            result = self.iterate(a, x, params, bnorm, t0);
+        }
+        if let Ok(info) = &result {
+            self.state.record_iterations(info.iterations);
+        }
+        result
+    }
+
+    fn invalidate_setup(&mut self) {
+        self.state.invalidate();
+    }
+}
+
+impl BiCgStab {
+    /// The iterations for `a` (right-hand side norm `bnorm`), after the preconditioner's
+    /// setup (started at `t0`).
+    fn iterate(
+        &mut self,
+        a: &CsrSystem<'_>,
+        x: &mut [f64],
+        params: &SolveParams,
+        bnorm: f64,
+        t0: Instant,
+    ) -> Result<SolveInfo, SolveError> {
+        let name = self.name();
+        let n = a.n();
         let setup_seconds = t0.elapsed().as_secs_f64();
         for w in self.work.iter_mut() {
             w.resize(n, 0.0);

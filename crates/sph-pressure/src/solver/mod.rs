@@ -79,13 +79,21 @@ impl CsrSystem<'_> {
 pub trait LinearSolver: Send {
     /// Name for reports.
     fn name(&self) -> &'static str;
-    /// Solves `A x = b`.
+    /// Solves `A x = b`. A solver may keep set-up work between calls (BiCGSTAB + AMG keeps its
+    /// hierarchy while it serves the systems of a run, which change slowly from step to step);
+    /// the result then depends on the earlier calls since the last
+    /// [`invalidate_setup`](Self::invalidate_setup).
     fn solve(
         &mut self,
         system: &CsrSystem<'_>,
         x: &mut [f64],
         params: &SolveParams,
     ) -> Result<SolveInfo, SolveError>;
+
+    /// Forgets any set-up work kept from earlier solves: the next solve starts as a new
+    /// solver's would. Called where a run is checkpointed, so a resumed run (a new solver)
+    /// and the uninterrupted one solve alike.
+    fn invalidate_setup(&mut self) {}
 }
 
 /// Solver choice as written in a scene file.
@@ -162,6 +170,12 @@ impl LinearSolver for AnySolver {
         match self {
             AnySolver::BiCgStab(s) => s.solve(system, x, params),
             AnySolver::SparseLu(s) => s.solve(system, x, params),
+        }
+    }
+    fn invalidate_setup(&mut self) {
+        match self {
+            AnySolver::BiCgStab(s) => s.invalidate_setup(),
+            AnySolver::SparseLu(s) => s.invalidate_setup(),
         }
     }
 }

@@ -25,7 +25,25 @@ pub(crate) struct PrecondState {
     /// Position of the diagonal entry in each row.
     diag_pos: Vec<usize>,
     amg: Amg,
+    /// Hierarchy reuse (see [`AMG_REUSE_MAX_AGE`]): solves since the last full AMG setup,
+    /// iterations of the first solve after it and of the last solve; `amg_valid` is false
+    /// until a full setup and after [`PrecondState::invalidate`].
+    amg_age: usize,
+    amg_fresh_iterations: usize,
+    amg_last_iterations: usize,
+    amg_valid: bool,
+    amg_fresh: bool,
 }
+
+/// Solves for which one AMG hierarchy is kept at most. Between full setups only the fine level
+/// follows the matrix. Measured on the 100² Re 100 cavity (DG, one thread, 100 steps): keeping
+/// the coarse levels for 10 / 20 / 50 solves gave 9.4 / 10.6 / 19.5 iterations per step
+/// against 8.6 rebuilt every step, and 0.89 / 0.91 / 1.15× the step time.
+pub(crate) const AMG_REUSE_MAX_AGE: usize = 10;
+
+/// A kept hierarchy is rebuilt once the last solve needed more than this many times the
+/// iterations of the first solve after its setup (plus one).
+pub(crate) const AMG_REUSE_GROWTH: f64 = 1.25;
 
 impl PrecondState {
     #[cfg(test)]
@@ -33,10 +51,33 @@ impl PrecondState {
         self.amg.shape()
     }
 
+    /// Forgets the AMG hierarchy: the next setup builds it whole.
+    pub(crate) fn invalidate(&mut self) {
+        self.amg_valid = false;
+    }
+
+    /// Records the iterations of the solve that followed the last `setup`.
+    pub(crate) fn record_iterations(&mut self, iterations: usize) {
+        if self.amg_fresh {
+            self.amg_fresh_iterations = iterations;
+        }
+        self.amg_last_iterations = iterations;
+    }
+
+    /// Whether the last `setup` reused a kept AMG hierarchy.
+    pub(crate) fn reused(&self) -> bool {
+        !self.amg_fresh
+    }
+
+    /// Prepares the preconditioner for `a`. AMG keeps its coarse levels from solve to solve
+    /// (`reuse`) until [`AMG_REUSE_MAX_AGE`] solves have passed or the iterations have grown
+    /// past [`AMG_REUSE_GROWTH`] times those after the last full setup; the decision depends only
+    /// on iteration counts, so it is reproducible.
     pub(crate) fn setup(
         &mut self,
         kind: Preconditioner,
         a: &CsrSystem<'_>,
+        reuse: bool,
     ) -> Result<(), SolveError> {
         let n = a.n();
         self.diag_pos.clear();
@@ -60,7 +101,20 @@ impl PrecondState {
         }
         match kind {
             Preconditioner::Jacobi => {}
-            Preconditioner::Amg => self.amg.setup(a, &self.inv_diag),
+            Preconditioner::Amg => {
+                let keep = reuse
+                    && self.amg_valid
+                    && self.amg_age + 1 < AMG_REUSE_MAX_AGE
+                    && (self.amg_last_iterations as f64)
+                        <= AMG_REUSE_GROWTH * self.amg_fresh_iterations as f64 + 1.0;
+                self.amg_fresh = self.amg.setup(a, &self.inv_diag, keep);
+                if self.amg_fresh {
+                    self.amg_age = 0;
+                    self.amg_valid = true;
+                } else {
+                    self.amg_age += 1;
+                }
+            }
             Preconditioner::Ilu0 => {
                 self.lu.clear();
                 self.lu.extend_from_slice(a.values);

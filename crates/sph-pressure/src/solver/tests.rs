@@ -464,3 +464,62 @@ sph_core::dim_tests! {
         }
     }
 }
+
+sph_core::dim_tests! {
+    fn amg_keeps_its_hierarchy_while_it_serves_and_forgets_it_on_invalidate<D>() {
+        // A sequence of slowly changing systems (off-diagonal entries perturbed a little more
+        // each time, as the matrices of consecutive steps are): every solve converges, the
+        // hierarchy is kept between full setups at most AMG_REUSE_MAX_AGE solves apart, and
+        // after `invalidate_setup` a solve is bitwise that of a new solver.
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 60 } else { 16 });
+        let m0 = fx.ppe();
+        let (x_star, _) = manufactured(&fx, &m0);
+        let (off, cols) = (fx.nl.offsets(), fx.nl.indices());
+        let system = |k: usize| {
+            let mut m = m0.clone();
+            for i in 0..off.len() - 1 {
+                for e in off[i]..off[i + 1] {
+                    let j = cols[e] as usize;
+                    if j != i {
+                        let w = ((i * 7 + j * 3) % 5) as f64 - 2.0;
+                        m.values[e] *= 1.0 + 0.004 * k as f64 * w / 2.0;
+                    }
+                }
+            }
+            let mut b = vec![0.0; x_star.len()];
+            m.matvec(off, cols, &x_star, &mut b);
+            (m, b)
+        };
+        let params = SolveParams { rel_tolerance: 1e-9, max_iterations: 500 };
+        let mut solver = BiCgStab::new(Preconditioner::Amg);
+        let mut x = vec![0.0; x_star.len()];
+        let mut kept = Vec::new();
+        for k in 0..24 {
+            let (m, b) = system(k);
+            let sys = CsrSystem { offsets: off, cols, values: &m.values, rhs: &b };
+            solver.solve(&sys, &mut x, &params).unwrap();
+            let err = x.iter().zip(&x_star).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            assert!(err < 1e-5, "solve {k}: max error {err}");
+            kept.push(solver.reused_setup());
+        }
+        assert!(!kept[0], "the first solve builds the hierarchy");
+        let reused = kept.iter().filter(|r| **r).count();
+        assert!(reused >= 12, "kept in only {reused} of 24 solves: {kept:?}");
+        let mut age = 0;
+        for r in &kept {
+            age = if *r { age + 1 } else { 0 };
+            assert!(age < super::precond::AMG_REUSE_MAX_AGE, "{kept:?}");
+        }
+        // After invalidate_setup: as a new solver, bit for bit.
+        let (m, b) = system(30);
+        let sys = CsrSystem { offsets: off, cols, values: &m.values, rhs: &b };
+        let start: Vec<f64> = x.clone();
+        solver.invalidate_setup();
+        let mut x1 = start.clone();
+        solver.solve(&sys, &mut x1, &params).unwrap();
+        assert!(!solver.reused_setup());
+        let mut x2 = start;
+        BiCgStab::new(Preconditioner::Amg).solve(&sys, &mut x2, &params).unwrap();
+        assert!(x1 == x2, "invalidate_setup left state behind");
+    }
+}
