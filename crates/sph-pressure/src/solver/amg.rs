@@ -28,8 +28,9 @@
 //!    [`ZERO_PIVOT`] — a singular pure-Neumann system — sets its unknown to 0).
 //!
 //! The cycle is a V(ν, ν) cycle with damped Jacobi smoothing (`ω_s = 4/(3ρ)`), a fixed linear
-//! operator, as BiCGSTAB needs. Setup is rebuilt for every solve (the matrix changes every
-//! step); its buffers are kept between solves.
+//! operator, as BiCGSTAB needs. The hierarchy may be kept for the next solves, with only the
+//! fine level refreshed from the new matrix (`setup` with `reuse`; the policy is in
+//! `PrecondState::setup`); its buffers are kept between solves.
 
 use crate::csr::{for_each_row_mut, matvec};
 use crate::solver::CsrSystem;

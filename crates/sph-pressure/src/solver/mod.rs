@@ -109,7 +109,7 @@ pub enum SolverKind {
     /// BiCGSTAB with ILU(0) preconditioning (4–5× fewer iterations, sequential setup).
     BicgstabIlu0,
     /// BiCGSTAB with smoothed-aggregation AMG preconditioning (iterations nearly independent
-    /// of the resolution; setup every solve).
+    /// of the resolution; the hierarchy is kept for up to 10 solves while it serves).
     BicgstabAmg,
     /// faer sparse LU (direct). Small systems and tests only.
     SparseLu,

@@ -12,7 +12,8 @@ pub enum Preconditioner {
     /// Sequential setup and triangular solves; cuts iterations several-fold on SPH Laplacians.
     Ilu0,
     /// Smoothed-aggregation algebraic multigrid, one V(1,1) cycle per application (see the
-    /// `amg` module). Iterations nearly independent of resolution; setup every solve.
+    /// `amg` module). Iterations nearly independent of resolution; hierarchy kept between
+    /// solves while it serves.
     Amg,
 }
 
