@@ -83,6 +83,9 @@ pub struct ValidateArgs {
     /// sweep.md, sweep.csv and the error-against-wall-time plots.
     #[arg(long)]
     pub sweep: bool,
+    /// With `--sweep`: run only these studies (`dx`, `dt`, `tolerance`; default all).
+    #[arg(long, value_delimiter = ',', requires = "sweep", value_parser = ["dx", "dt", "tolerance"])]
+    pub study: Vec<String>,
     /// Records between particle frames (MCAP, ParaView).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     pub frame_every: Option<u64>,

@@ -4,7 +4,9 @@
 //! kernels and two solvers on two cases — the 2D elliptical drop (error: the semi-axis `a` at the
 //! end time against the exact solution; also the second-moment volume change) and the Re = 100
 //! cavity (error: RMS deviation from Ghia et al., the larger of u and v) — plus a Δt-only
-//! refinement of the drop at fixed dx. It writes `sweep.csv`, `sweep.md` (the table with the
+//! refinement of the drop at fixed dx, and a solver study: the pressure solve's relative
+//! tolerance from 1e-2 to 1e-8, warm-started or from zero, for every scheme on the drop and the
+//! 20² cavity (AMG). It writes `sweep.csv`, `sweep.md` (the table with the
 //! Pareto-optimal runs marked, and the observed convergence orders) and one error-against-wall-
 //! time plot per case.
 
@@ -29,6 +31,9 @@ struct Point {
     scheme: SchemeKind,
     kernel: KernelKind,
     solver: SolverKind,
+    /// Relative residual tolerance of the pressure solve, and whether it is warm-started.
+    tolerance: f64,
+    warm: bool,
     dx: f64,
     dt: f64,
     particles: usize,
@@ -72,6 +77,8 @@ impl Point {
             scheme: scene.schemes[0],
             kernel: scene.kernel,
             solver: scene.solver,
+            tolerance: scene.solver_tolerance.unwrap_or(1e-9),
+            warm: scene.solver_warm_start,
             dx: scene.dx,
             dt: scene.dt,
             particles,
@@ -137,8 +144,8 @@ fn drop_point(scene: &Scene, refs: &References, study: &'static str) -> Point {
     })
 }
 
-fn cavity_point(scene: &Scene, refs: &References) -> Point {
-    Point::measure("cavity_re100", "dx", scene, || {
+fn cavity_point(scene: &Scene, refs: &References, study: &'static str) -> Point {
+    Point::measure("cavity_re100", study, scene, || {
         let (r, sink) = run_one(scene, refs)?;
         let get = |k: &str| r.results.get(k).copied().unwrap_or(f64::NAN);
         Ok((
@@ -187,8 +194,9 @@ fn pareto(points: &[&Point]) -> Vec<usize> {
         .collect()
 }
 
-/// Runs the sweep and writes its outputs into `out`.
-pub fn run(cases: &Path, out: &Path, refs: &References) -> anyhow::Result<()> {
+/// Runs the sweep (only the `studies` named, if any) and writes its outputs into `out`.
+pub fn run(cases: &Path, out: &Path, refs: &References, studies: &[String]) -> anyhow::Result<()> {
+    let wanted = |s: &str| studies.is_empty() || studies.iter().any(|w| w == s);
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let drop_scene = dgsph::session::load_scene(&cases.join("elliptical_drop.toml"))
         .map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -197,12 +205,14 @@ pub fn run(cases: &Path, out: &Path, refs: &References) -> anyhow::Result<()> {
     let mut points = Vec::new();
     let mut progress = |p: Point| {
         println!(
-            "  {:<16} {:<3} {:<19} {:<14} {:<15} dx {:<7} dt {:<8.1e} n {:>6}  error {:.3e}  wall {:>7.2} s  {}",
+            "  {:<16} {:<9} {:<19} {:<14} {:<15} tol {:.0e}{} dx {:<7} dt {:<8.1e} n {:>6}  error {:.3e}  wall {:>7.2} s  {}",
             p.case,
             p.study,
             p.scheme.name(),
             p.kernel.name(),
             p.solver.name(),
+            p.tolerance,
+            if p.warm { "" } else { " cold" },
             p.dx,
             p.dt,
             p.particles,
@@ -214,7 +224,7 @@ pub fn run(cases: &Path, out: &Path, refs: &References) -> anyhow::Result<()> {
     };
     // Drop: dx with Δt ∝ dx (fixed CFL), every kernel and solver.
     for &scheme in &SCHEMES {
-        for &kernel in &KERNELS {
+        for &kernel in KERNELS.iter().filter(|_| wanted("dx")) {
             for &solver in &SOLVERS {
                 for k in [1.0, 0.5, 0.25] {
                     let scene = Scene {
@@ -230,7 +240,10 @@ pub fn run(cases: &Path, out: &Path, refs: &References) -> anyhow::Result<()> {
             }
         }
         // Drop: Δt alone at the scene's dx and kernel.
-        for dt in [4e-4, 2e-4, 1e-4, 5e-5] {
+        for dt in [4e-4, 2e-4, 1e-4, 5e-5]
+            .into_iter()
+            .filter(|_| wanted("dt"))
+        {
             let scene = Scene {
                 schemes: vec![scheme],
                 dt,
@@ -241,7 +254,7 @@ pub fn run(cases: &Path, out: &Path, refs: &References) -> anyhow::Result<()> {
     }
     // Cavity Re 100: dx ∈ {1/10, 1/16, 1/20} at the scene's Δt and end time.
     for &scheme in &SCHEMES {
-        for &kernel in &KERNELS {
+        for &kernel in KERNELS.iter().filter(|_| wanted("dx")) {
             for &solver in &SOLVERS {
                 for m in [10.0, 16.0, 20.0] {
                     let scene = Scene {
@@ -251,17 +264,44 @@ pub fn run(cases: &Path, out: &Path, refs: &References) -> anyhow::Result<()> {
                         dx: 1.0 / m,
                         ..cavity_scene.clone()
                     };
-                    progress(cavity_point(&scene, refs));
+                    progress(cavity_point(&scene, refs, "dx"));
                 }
+            }
+        }
+    }
+    // Solver tolerance and warm start, every scheme, at the drop scene's resolution and at the
+    // cavity's 20² (AMG, as the larger cavity scenes declare).
+    for &scheme in SCHEMES.iter().filter(|_| wanted("tolerance")) {
+        for warm in [true, false] {
+            for tol in TOLERANCES {
+                let drop = Scene {
+                    schemes: vec![scheme],
+                    solver_tolerance: Some(tol),
+                    solver_warm_start: warm,
+                    ..drop_scene.clone()
+                };
+                progress(drop_point(&drop, refs, "tolerance"));
+                let cavity = Scene {
+                    schemes: vec![scheme],
+                    solver: SolverKind::BicgstabAmg,
+                    solver_tolerance: Some(tol),
+                    solver_warm_start: warm,
+                    dx: 1.0 / 20.0,
+                    ..cavity_scene.clone()
+                };
+                progress(cavity_point(&cavity, refs, "tolerance"));
             }
         }
     }
     write_outputs(out, &points)
 }
 
+/// Solver tolerances of the tolerance study.
+const TOLERANCES: [f64; 5] = [1e-2, 1e-3, 1e-4, 1e-6, 1e-8];
+
 fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
     let mut csv = String::from(
-        "case,study,scheme,kernel,solver,dx,dt,particles,steps,wall_s,error,error2,pareto,status\n",
+        "case,study,scheme,kernel,solver,tolerance,warm_start,dx,dt,particles,steps,wall_s,error,error2,pareto,status\n",
     );
     let mut md = String::from(
         "# Accuracy against cost\n\n`cargo xtask validate --sweep`. Errors: elliptical drop — \
@@ -281,18 +321,20 @@ fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
         let front = pareto(&rows);
         let _ = writeln!(
             md,
-            "## {case}\n\n| | study | scheme | kernel | solver | dx | Δt | particles | steps | wall (s) | error | error 2 | status |\n|---|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|"
+            "## {case}\n\n| | study | scheme | kernel | solver | tolerance | dx | Δt | particles | steps | wall (s) | error | error 2 | status |\n|---|---|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|"
         );
         for (i, p) in rows.iter().enumerate() {
             let star = front.contains(&i);
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} | {} | {:.4} | {:.1e} | {} | {} | {:.2} | {:.3e} | {:.3e} | {} |",
+                "| {} | {} | {} | {} | {} | {:.0e}{} | {:.4} | {:.1e} | {} | {} | {:.2} | {:.3e} | {:.3e} | {} |",
                 if star { "★" } else { "" },
                 p.study,
                 p.scheme.name(),
                 p.kernel.name(),
                 p.solver.name(),
+                p.tolerance,
+                if p.warm { "" } else { ", cold" },
                 p.dx,
                 p.dt,
                 p.particles,
@@ -304,12 +346,14 @@ fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
             );
             let _ = writeln!(
                 csv,
-                "{},{},{},{},{},{},{},{},{},{:.4},{:.6e},{:.6e},{},{}",
+                "{},{},{},{},{},{:e},{},{},{},{},{},{:.4},{:.6e},{:.6e},{},{}",
                 p.case,
                 p.study,
                 p.scheme.name(),
                 p.kernel.name(),
                 p.solver.name(),
+                p.tolerance,
+                p.warm,
                 p.dx,
                 p.dt,
                 p.particles,
@@ -329,6 +373,7 @@ fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
         );
         let mut families: Vec<(&str, SchemeKind, KernelKind, SolverKind)> = rows
             .iter()
+            .filter(|p| p.study != "tolerance")
             .map(|p| (p.study, p.scheme, p.kernel, p.solver))
             .collect();
         families.sort_by_key(|f| (f.0, f.1.name(), f.2.name(), f.3.name()));
@@ -419,6 +464,8 @@ mod tests {
             scheme: SchemeKind::Dg,
             kernel: KernelKind::WendlandC2,
             solver: SolverKind::BicgstabJacobi,
+            tolerance: 1e-6,
+            warm: true,
             dx: 0.1,
             dt: 0.1,
             particles: 1,

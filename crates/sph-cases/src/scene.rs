@@ -236,6 +236,10 @@ pub struct Scene {
     pub solver: SolverKind,
     /// Relative residual tolerance of the pressure solve. Default 1e-9.
     pub solver_tolerance: Option<f64>,
+    /// Start each pressure solve from the previous step's pressure (`true`, the default) or
+    /// from zero.
+    #[serde(default = "default_true")]
+    pub solver_warm_start: bool,
     /// Hessian of the DG equation. Default `eq25`.
     #[serde(default)]
     pub dg_hessian: DgHessianChoice,
@@ -310,6 +314,10 @@ const BYTES_PER_PARTICLE: f64 = 600.0;
 /// copy of both (4 + 8 + 4 + 8), plus the AMG's coarse levels and the per-chunk scratch.
 const BYTES_PER_PAIR: f64 = 40.0;
 
+fn default_true() -> bool {
+    true
+}
+
 impl Scene {
     /// The paper's drop setup (Section 5) for `case` at spacing `dx` and step `dt`, run to
     /// `t_end`: quintic kernel, h = 1.3 dx, the default free-surface threshold of the dimension,
@@ -332,6 +340,7 @@ impl Scene {
             pressure: PressureSpec::default(),
             solver: SolverKind::default(),
             solver_tolerance: None,
+            solver_warm_start: true,
             dg_hessian: DgHessianChoice::default(),
             cavity: None,
             wall_condition: None,
@@ -404,6 +413,7 @@ impl Scene {
         if let Some(tol) = self.solver_tolerance {
             config.solve.rel_tolerance = tol;
         }
+        config.warm_start = self.solver_warm_start;
         config.dg_hessian = self.dg_hessian.into();
         config.effects = Effects {
             viscosity: self.effects.viscosity,
@@ -552,7 +562,7 @@ impl Scene {
     /// Whether `self` may continue a run written under `written` (its checkpoint's scene): the
     /// same physics, with only these keys free to differ — when it ends (`t_end`), which schemes
     /// the command runs, how the (same) linear systems are solved (`solver`,
-    /// `solver_tolerance`) and what is recorded and checked (`output`, `check`, the cavity's
+    /// `solver_tolerance`, `solver_warm_start`) and what is recorded and checked (`output`, `check`, the cavity's
     /// `snapshots`, `sample_every`, `ghia_tolerance`, `check_ghia`, the `quick` table). Returns
     /// the keys that differ otherwise.
     pub fn resume_differences(&self, written: &Scene) -> Vec<String> {
@@ -562,6 +572,7 @@ impl Scene {
             s.schemes.clear();
             s.solver = SolverKind::default();
             s.solver_tolerance = None;
+            s.solver_warm_start = true;
             s.output = OutputSpec::default();
             s.check.clear();
             s.quick = None;

@@ -144,6 +144,8 @@ pub struct SimConfig {
     pub solver: SolverKind,
     /// Solver tolerances.
     pub solve: SolveParams,
+    /// Start each pressure solve from the last step's pressure (default) or from zero.
+    pub warm_start: bool,
     /// Neighbour search backend. Default cell grid.
     pub search: SearchKind,
     /// Per-step diagnostics. Default: none.
@@ -170,6 +172,7 @@ impl SimConfig {
             consistent_laplacian: false,
             solver: SolverKind::BicgstabJacobi,
             solve: SolveParams::default(),
+            warm_start: true,
             search: SearchKind::CellGrid,
             diagnostics: Diagnostics::default(),
             periodic: None,

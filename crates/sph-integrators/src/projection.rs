@@ -212,6 +212,9 @@ pub(crate) fn project<D: Dim>(
         values: &e.matrix.values,
         rhs: &e.rhs,
     };
+    if !e.config.warm_start {
+        pressures.fill(0.0);
+    }
     // No Dirichlet row: a closed domain, pressure defined up to a constant → mean-zero gauge.
     let clock = Instant::now();
     let solve = if e.dirichlet.iter().any(|d| *d) {
