@@ -3,7 +3,7 @@
 use crate::support::{run, run_with};
 use sph_cases::run::RunControl;
 use sph_cases::{Scene, cavity};
-use sph_core::{D2, D3, Dim};
+use sph_core::{D2, D3, Dim, VectorOps};
 use sph_integrators::{Diagnostics, Integrator, Scheme, SchemeKind, StepReport};
 
 fn scene(dim: usize, dx: f64, dt: f64, re: f64, shifting: bool) -> Scene {
@@ -199,4 +199,52 @@ fn resumed_run_continues_bit_for_bit_d2() {
 #[test]
 fn resumed_run_continues_bit_for_bit_d3() {
     resumed_run_continues_bit_for_bit::<D3>();
+}
+
+/// `solver_warm_start = false` starts every pressure solve from zero: the same steps to the
+/// solver's tolerance, with more iterations than from the last step's pressure.
+fn cold_start_solves_the_same_steps_with_more_iterations<D: Dim>() {
+    let dx = if D::DIM == 2 { 0.05 } else { 0.125 };
+    let mut totals = Vec::new();
+    let mut velocities = Vec::new();
+    for warm in [true, false] {
+        let mut s = scene(D::DIM, dx, 0.01, 100.0, false);
+        s.solver_warm_start = warm;
+        let c = cavity::setup::<D>(&s).unwrap();
+        assert_eq!(c.config.warm_start, warm);
+        let mut sim = c.simulation().unwrap();
+        let mut scheme = Scheme::new(SchemeKind::Dg);
+        let mut total = 0;
+        for _ in 0..5 {
+            total += scheme.step(&mut sim, 0.01).unwrap().solve.iterations;
+        }
+        totals.push(total);
+        velocities.push(sim.particles.velocities.clone());
+    }
+    assert!(
+        totals[0] < totals[1],
+        "iterations warm {} vs cold {}",
+        totals[0],
+        totals[1]
+    );
+    let umax = velocities[0].iter().map(|u| u.length()).fold(0.0, f64::max);
+    let diff = velocities[0]
+        .iter()
+        .zip(&velocities[1])
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0, f64::max);
+    assert!(
+        diff < 1e-6 * umax,
+        "warm and cold velocities differ by {diff} (max |u| {umax})"
+    );
+}
+
+#[test]
+fn cold_start_solves_the_same_steps_with_more_iterations_d2() {
+    cold_start_solves_the_same_steps_with_more_iterations::<D2>();
+}
+
+#[test]
+fn cold_start_solves_the_same_steps_with_more_iterations_d3() {
+    cold_start_solves_the_same_steps_with_more_iterations::<D3>();
 }
