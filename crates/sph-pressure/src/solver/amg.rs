@@ -32,7 +32,7 @@
 //! fine level refreshed from the new matrix (`setup` with `reuse`; the policy is in
 //! `PrecondState::setup`); its buffers are kept between solves.
 
-use crate::csr::{for_each_row_mut, matvec};
+use crate::csr::{for_each_row_mut, for_each_row_mut2, matvec};
 use crate::solver::CsrSystem;
 use rayon::prelude::*;
 
@@ -266,29 +266,47 @@ impl Amg {
                 }
             });
         } else {
+            // In parallel: each row's kept entries and whether it meets a dense column, the
+            // offsets, then each row's columns and values filled in place.
+            let dense = &self.dense;
+            let keep = |i: usize, j: usize| if dense[i] { j == i } else { !dense[j] };
+            l0.a.offsets.resize(n + 1, 0);
+            self.in_gauge
+                .par_iter_mut()
+                .zip(l0.a.offsets[1..].par_iter_mut())
+                .enumerate()
+                .with_min_len(1024)
+                .for_each(|(i, (g, c))| {
+                    let row = &a.cols[a.offsets[i]..a.offsets[i + 1]];
+                    let hits = row.iter().filter(|&&j| dense[j as usize]).count();
+                    *g = !dense[i] && hits > 0;
+                    *c = if dense[i] { 1 } else { row.len() - hits };
+                });
             for i in 0..n {
-                for k in a.offsets[i]..a.offsets[i + 1] {
-                    let j = a.cols[k] as usize;
-                    if self.dense[j] {
-                        if j == i {
-                            l0.a.cols.push(j as u32);
-                            l0.a.values.push(a.values[k] * inv_diag[i]);
-                        } else {
-                            self.in_gauge[i] = true;
-                        }
-                    } else if !self.dense[i] {
-                        l0.a.cols.push(j as u32);
-                        l0.a.values.push(a.values[k] * inv_diag[i]);
-                    }
-                }
-                l0.a.offsets.push(l0.a.cols.len());
+                l0.a.offsets[i + 1] += l0.a.offsets[i];
             }
+            let nnz = l0.a.offsets[n];
+            l0.a.cols.resize(nnz, 0);
+            l0.a.values.resize(nnz, 0.0);
+            for_each_row_mut2(
+                &l0.a.offsets,
+                &mut l0.a.cols,
+                &mut l0.a.values,
+                &|i, cols, vals| {
+                    let (s, e) = (a.offsets[i], a.offsets[i + 1]);
+                    let kept = (s..e).filter(|&k| keep(i, a.cols[k] as usize));
+                    for ((c, v), k) in cols.iter_mut().zip(vals.iter_mut()).zip(kept) {
+                        *c = a.cols[k];
+                        *v = a.values[k] * inv_diag[i];
+                    }
+                },
+            );
         }
         // Singular: every row with off-diagonal entries sums to zero (round-off aside); rows
         // without (Dirichlet, dense) have no aggregate and never reach the coarse levels.
         {
             let l0 = &self.levels[0];
-            self.singular = (0..n).all(|i| {
+            self.singular = (0..n).into_par_iter().with_min_len(1024).all(|i| {
                 let row = l0.a.offsets[i]..l0.a.offsets[i + 1];
                 let (sum, abs) = l0.a.values[row.clone()]
                     .iter()
@@ -345,26 +363,32 @@ impl Amg {
     /// Inverse diagonal and smoothing weight of a level.
     fn prepare_level(l: &mut Level) {
         let m = l.a.nrows();
-        l.inv_diag.clear();
-        let mut rho = 0.0f64;
-        for i in 0..m {
-            let (s, e) = (l.a.offsets[i], l.a.offsets[i + 1]);
-            let mut d = 0.0;
-            let mut abs = 0.0;
-            for k in s..e {
-                if l.a.cols[k] as usize == i {
-                    d += l.a.values[k];
+        let a = &l.a;
+        // In parallel; the maximum is exact in any order, so ω does not depend on the threads.
+        l.inv_diag.resize(m, 0.0);
+        let rho = l
+            .inv_diag
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(1024)
+            .map(|(i, inv)| {
+                let (s, e) = (a.offsets[i], a.offsets[i + 1]);
+                let mut d = 0.0;
+                let mut abs = 0.0;
+                for k in s..e {
+                    if a.cols[k] as usize == i {
+                        d += a.values[k];
+                    }
+                    abs += a.values[k].abs();
                 }
-                abs += l.a.values[k].abs();
-            }
-            let inv = if d != 0.0 && d.is_finite() {
-                1.0 / d
-            } else {
-                0.0
-            };
-            l.inv_diag.push(inv);
-            rho = rho.max(abs * inv.abs());
-        }
+                *inv = if d != 0.0 && d.is_finite() {
+                    1.0 / d
+                } else {
+                    0.0
+                };
+                abs * inv.abs()
+            })
+            .reduce(|| 0.0f64, f64::max);
         l.omega = if rho > 0.0 { 4.0 / (3.0 * rho) } else { 0.0 };
     }
 
