@@ -60,6 +60,7 @@ fn cavity(c: &mut Criterion, dx: f64, solver: &str) {
     scene.dt = 0.25 * dx;
     scene.solver = match solver {
         "bicgstab_amg" => sph_pressure::SolverKind::BicgstabAmg,
+        "gmres_amg" => sph_pressure::SolverKind::GmresAmg,
         _ => sph_pressure::SolverKind::BicgstabJacobi,
     };
     let refs = sph_cases::reference::References::embedded();
@@ -100,7 +101,7 @@ fn cavity(c: &mut Criterion, dx: f64, solver: &str) {
 
 fn integrators(c: &mut Criterion) {
     for dx in [0.01, 0.005] {
-        for solver in ["bicgstab_jacobi", "bicgstab_amg"] {
+        for solver in ["bicgstab_jacobi", "bicgstab_amg", "gmres_amg"] {
             cavity(c, dx, solver);
         }
     }

@@ -52,7 +52,8 @@ pub struct Overrides {
     /// Override the kernel (`quintic_spline`, `wendland_c2`, `cubic_spline`).
     #[arg(long)]
     pub kernel: Option<String>,
-    /// Override the solver (`bicgstab_jacobi`, `bicgstab_ilu0`, `bicgstab_amg`, `sparse_lu`).
+    /// Override the solver (`bicgstab_jacobi`, `bicgstab_ilu0`, `bicgstab_amg`, `gmres_amg`,
+    /// `sparse_lu`).
     #[arg(long)]
     pub solver: Option<String>,
     /// Override the solver's relative tolerance.

@@ -7,7 +7,7 @@ use crate::{Shifting, Simulation, StepError, StepReport, Walls};
 use serde::{Deserialize, Serialize};
 use sph_core::Dim;
 use sph_core::{ParticleSet, VectorOps};
-use sph_operators::{SphContext, concentration_gradient, velocity_gradient, viscous_acceleration};
+use sph_operators::{SphContext, shifting_gradients, viscous_acceleration};
 use std::time::Instant;
 
 /// One time-update scheme.
@@ -164,8 +164,7 @@ struct ShiftBuffers<'a, D: Dim> {
 fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shifting, dt: f64) {
     let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
     let l = e.config.renormalise.then_some(&e.corrections[..]);
-    concentration_gradient(&ctx, sh.spacing, b.grad_c);
-    velocity_gradient(&ctx, b.u_new, l, b.grad_u);
+    shifting_gradients(&ctx, sh.spacing, b.u_new, l, b.grad_c, b.grad_u);
     let h = e.config.h;
     let cap = MAX_SHIFT * sh.spacing;
     let nf = e.fluid;

@@ -87,7 +87,7 @@ pub use gradient::{GradientForm, gradient};
 pub use hessian::{HessianForm, hessian, hessian_stencil_eq25};
 pub use laplacian::laplacian;
 pub use quadratic_fit::{QuadraticFitStats, hessian_quadratic_fit, hessian_stencil_fit};
-pub use shifting::concentration_gradient;
+pub use shifting::{concentration_gradient, shifting_gradients};
 pub use viscosity::viscous_acceleration;
 
 /// The dimension abstraction (re-export of `sph-core`).

@@ -1,7 +1,7 @@
 use crate::SolveError;
 use crate::csr::matvec;
 use crate::solver::precond::PrecondState;
-use crate::solver::{CsrSystem, LinearSolver, Preconditioner, SolveInfo, SolveParams};
+use crate::solver::{CsrSystem, Krylov, LinearSolver, Preconditioner, SolveInfo, SolveParams};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -46,7 +46,7 @@ const MAX_RESTARTS: usize = 5;
 
 /// `a · b` by a fixed binary split into 4096-element leaves: the summation tree depends only on
 /// the length, so the result is bitwise independent of the thread count, and nothing allocates.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     const LEAF: usize = 4096;
     if a.len() <= LEAF {
         return a.iter().zip(b).map(|(x, y)| x * y).sum();
@@ -58,7 +58,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     l + r
 }
 
-fn axpy_into(out: &mut [f64], a: &[f64], alpha: f64, b: &[f64]) {
+pub(super) fn axpy_into(out: &mut [f64], a: &[f64], alpha: f64, b: &[f64]) {
     out.par_iter_mut()
         .zip(a.par_iter().zip(b.par_iter()))
         .with_min_len(4096)
@@ -82,37 +82,7 @@ impl LinearSolver for BiCgStab {
         x: &mut [f64],
         params: &SolveParams,
     ) -> Result<SolveInfo, SolveError> {
-        let t0 = Instant::now();
-        assert_eq!(x.len(), a.n());
-        let bnorm = dot(a.rhs, a.rhs).sqrt();
-        if bnorm == 0.0 {
-            x.fill(0.0);
-            return Ok(SolveInfo {
-                iterations: 0,
-                rel_residual: 0.0,
-                seconds: t0.elapsed().as_secs_f64(),
-                setup_seconds: 0.0,
-            });
-        }
-        // AMG keeps its hierarchy between solves (see `PrecondState::setup`); a solve that
-        // fails with a kept hierarchy is repeated from the same warm start with a fresh one.
-        let amg = self.precond == Preconditioner::Amg;
-        if amg {
-            self.x0.clear();
-            self.x0.extend_from_slice(x);
-        }
-        self.state.setup(self.precond, a, true)?;
-        let mut result = self.iterate(a, x, params, bnorm, t0);
-        if amg && result.is_err() && self.state.reused() {
-            x.copy_from_slice(&self.x0);
-            self.state.invalidate();
-            self.state.setup(self.precond, a, false)?;
-            result = self.iterate(a, x, params, bnorm, t0);
-        }
-        if let Ok(info) = &result {
-            self.state.record_iterations(info.iterations);
-        }
-        result
+        super::krylov_solve(self, a, x, params)
     }
 
     fn invalidate_setup(&mut self) {
@@ -120,9 +90,14 @@ impl LinearSolver for BiCgStab {
     }
 }
 
-impl BiCgStab {
-    /// The iterations for `a` (right-hand side norm `bnorm`), after the preconditioner's
-    /// setup (started at `t0`).
+impl Krylov for BiCgStab {
+    fn precond(&self) -> Preconditioner {
+        self.precond
+    }
+    fn parts(&mut self) -> (&mut PrecondState, &mut Vec<f64>) {
+        (&mut self.state, &mut self.x0)
+    }
+
     fn iterate(
         &mut self,
         a: &CsrSystem<'_>,

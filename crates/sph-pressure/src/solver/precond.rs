@@ -3,7 +3,7 @@ use crate::solver::CsrSystem;
 use crate::solver::amg::Amg;
 use rayon::prelude::*;
 
-/// Preconditioner of [`BiCgStab`](super::BiCgStab).
+/// Preconditioner of the Krylov solvers ([`BiCgStab`](super::BiCgStab), [`Gmres`](super::Gmres)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Preconditioner {
     /// `M = diag(A)`: parallel, no setup cost.

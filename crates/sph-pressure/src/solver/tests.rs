@@ -80,7 +80,7 @@ sph_core::dim_tests! {
         let (x_star, b) = manufactured(&fx, &m);
         let sys = CsrSystem { offsets: fx.nl.offsets(), cols: fx.nl.indices(), values: &m.values, rhs: &b };
         let params = SolveParams { rel_tolerance: 1e-10, max_iterations: 5000 };
-        for kind in [SolverKind::BicgstabJacobi, SolverKind::BicgstabIlu0, SolverKind::BicgstabAmg, SolverKind::SparseLu] {
+        for kind in [SolverKind::BicgstabJacobi, SolverKind::BicgstabIlu0, SolverKind::BicgstabAmg, SolverKind::GmresAmg, SolverKind::SparseLu] {
             let mut s = AnySolver::new(kind);
             let mut x = vec![0.0; b.len()];
             let info = s.solve(&sys, &mut x, &params).unwrap();
@@ -200,6 +200,72 @@ fn solve_is_independent_of_thread_count() {
         assert_eq!(run(1, p), run(3, p), "{p:?}");
     }
     let _ = D3;
+    let gmres = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let sys = CsrSystem {
+                    offsets: fx.nl.offsets(),
+                    cols: fx.nl.indices(),
+                    values: &m.values,
+                    rhs: &b,
+                };
+                let mut x = vec![0.0; b.len()];
+                Gmres::new(Preconditioner::Amg, GMRES_RESTART)
+                    .solve(&sys, &mut x, &SolveParams::default())
+                    .unwrap();
+                x
+            })
+    };
+    assert_eq!(gmres(1), gmres(3), "GMRES + AMG");
+}
+
+sph_core::dim_tests! {
+    fn gmres_restarts_and_stops_on_the_true_residual<D>() {
+        // A non-symmetric DG system (A ≠ I): GMRES(m) converges through restarts, its reported
+        // residual is the true one, and an iteration limit is a typed error.
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
+        let n = fx.pts.len();
+        let mut rng = SplitMix64::new(11);
+        let a: Vec<D::Matrix> = (0..n)
+            .map(|_| D::Matrix::from_fn(|i, j| f64::from(u8::from(i == j)) + rng.uniform(-0.15, 0.15)))
+            .collect();
+        let (zeros, ones) = (vec![0.0; n], vec![1.0; n]);
+        let mut dg = CsrMatrix::default();
+        let mut rhs = vec![0.0; n];
+        assemble_dg(&fx.ctx(), &ones, &a, &zeros, 1.0, DgHessian::Eq25, &fx.dirichlet, None, &mut dg, &mut rhs).unwrap();
+        let (x_star, b) = manufactured(&fx, &dg);
+        let sys = CsrSystem { offsets: fx.nl.offsets(), cols: fx.nl.indices(), values: &dg.values, rhs: &b };
+        let params = SolveParams { rel_tolerance: 1e-10, max_iterations: 5000 };
+        let mut scratch = vec![0.0; n];
+        for (p, m) in [(Preconditioner::Jacobi, 5), (Preconditioner::Amg, 2), (Preconditioner::Amg, GMRES_RESTART)] {
+            let mut x = vec![0.0; n];
+            let info = Gmres::new(p, m).solve(&sys, &mut x, &params).unwrap();
+            let true_res = sys.rel_residual(&x, &mut scratch);
+            assert!(true_res <= 1e-10, "{p:?}, m = {m}: true residual {true_res}");
+            // The same norm, summed in another order.
+            let rel = (info.rel_residual - true_res).abs() / true_res;
+            assert!(rel < 1e-9, "{p:?}, m = {m}: reported {} vs true {true_res}", info.rel_residual);
+            if m < GMRES_RESTART {
+                assert!(info.iterations > m, "{p:?}, m = {m}: no restart in {} iterations", info.iterations);
+            }
+            let err = x.iter().zip(&x_star).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            assert!(err < 1e-6, "{p:?}, m = {m}: max error {err}");
+        }
+        let mut x = vec![0.0; n];
+        let err = Gmres::new(Preconditioner::Jacobi, 5)
+            .solve(&sys, &mut x, &SolveParams { rel_tolerance: 1e-12, max_iterations: 7 })
+            .unwrap_err();
+        match err {
+            crate::SolveError::NoConvergence { iterations, rel_residual, .. } => {
+                assert_eq!(iterations, 7);
+                assert!(rel_residual > 1e-12 && rel_residual.is_finite());
+            }
+            e => panic!("expected NoConvergence, got {e:?}"),
+        }
+    }
 }
 
 sph_core::dim_tests! {
@@ -217,7 +283,7 @@ sph_core::dim_tests! {
         let mean_star = x_star.iter().sum::<f64>() / n as f64;
         let sys = CsrSystem { offsets: fx.nl.offsets(), cols: fx.nl.indices(), values: &m.values, rhs: &b };
         let params = SolveParams { rel_tolerance: 1e-11, max_iterations: 5000 };
-        for kind in [SolverKind::BicgstabJacobi, SolverKind::BicgstabIlu0, SolverKind::BicgstabAmg, SolverKind::SparseLu] {
+        for kind in [SolverKind::BicgstabJacobi, SolverKind::BicgstabIlu0, SolverKind::BicgstabAmg, SolverKind::GmresAmg, SolverKind::SparseLu] {
             let mut gauge = crate::MeanZeroGauge::default();
             let mut p = vec![0.0; n];
             gauge.solve(&mut AnySolver::new(kind), &sys, n, &mut p, &params).unwrap();
