@@ -176,7 +176,7 @@ fn solve_is_independent_of_thread_count() {
     let fx = Fixture::<D2>::new(60);
     let m = fx.ppe();
     let (_, b) = manufactured(&fx, &m);
-    let run = |threads, precond| {
+    let run = |threads, kind| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
@@ -189,37 +189,21 @@ fn solve_is_independent_of_thread_count() {
                     rhs: &b,
                 };
                 let mut x = vec![0.0; b.len()];
-                BiCgStab::new(precond)
+                AnySolver::new(kind)
                     .solve(&sys, &mut x, &SolveParams::default())
                     .unwrap();
                 x
             })
     };
     // AMG's setup multiplies sparse matrices in parallel blocks (2 of them at this size).
-    for p in [Preconditioner::Jacobi, Preconditioner::Amg] {
-        assert_eq!(run(1, p), run(3, p), "{p:?}");
+    for kind in [
+        SolverKind::BicgstabJacobi,
+        SolverKind::BicgstabAmg,
+        SolverKind::GmresAmg,
+    ] {
+        assert_eq!(run(1, kind), run(3, kind), "{kind:?}");
     }
     let _ = D3;
-    let gmres = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                let sys = CsrSystem {
-                    offsets: fx.nl.offsets(),
-                    cols: fx.nl.indices(),
-                    values: &m.values,
-                    rhs: &b,
-                };
-                let mut x = vec![0.0; b.len()];
-                Gmres::new(Preconditioner::Amg, GMRES_RESTART)
-                    .solve(&sys, &mut x, &SolveParams::default())
-                    .unwrap();
-                x
-            })
-    };
-    assert_eq!(gmres(1), gmres(3), "GMRES + AMG");
 }
 
 sph_core::dim_tests! {
