@@ -42,7 +42,7 @@ use rayon::prelude::*;
 /// the whole `A`; the preconditioner approximates it. SPH Laplacian rows are long (~45
 /// entries in 2D with the quintic kernel at h = 1.3 dx) and their outer shell is weak:
 /// at 0.1 the fine level keeps 64 % of the entries of a lattice disc with the same
-/// iterations, and on the 100² cavity's DG systems the solve took 0.85× the time for 10.8
+/// iterations, and on the 100² cavity's DG systems the solve took 0.80× the time for 10.8
 /// iterations per step instead of 9.5 (docs/performance.md); at 0.2, 47 % and no gain.
 const FILTER: f64 = 0.1;
 /// Strength-of-connection threshold θ.
