@@ -3,7 +3,7 @@
 //! (`pressure/solve_<solver>/<dim>/<n>`).
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use dgsph_benches::{H, drop_scene, particles, self_join};
+use dgsph_benches::{Block, drop_scene};
 use sph_cases::CaseKind;
 use sph_cases::drop::initial;
 use sph_core::{D2, D3, Dim, MatrixOps, VectorOps};
@@ -20,15 +20,14 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
     let mut group = c.benchmark_group("pressure");
     group.sample_size(10);
     for &n in sizes {
-        let pts = particles::<D>(n);
-        let nl = self_join::<D>(&pts);
-        let kernel = QuinticSpline::<D>::new(H);
+        let block = Block::<D>::new(n);
+        let (pts, ones, ctx) = (&block.pts, &block.ones, block.ctx());
         let n = pts.len();
-        let ones = vec![1.0; n];
-        let ctx = SphContext::new(&pts, &ones, &nl, &kernel);
-        let mut div_r = vec![0.0; n];
-        free_surface_indicator(&ctx, &mut div_r);
-        let dirichlet: Vec<bool> = div_r.iter().map(|d| *d < 0.75 * D::DIM as f64).collect();
+        let dirichlet: Vec<bool> = block
+            .div_r
+            .iter()
+            .map(|d| *d < 0.75 * D::DIM as f64)
+            .collect();
         let src: Vec<f64> = pts.iter().map(|x| x.get(0) * 1e-3).collect();
         let a: Vec<D::Matrix> = pts
             .iter()
@@ -41,7 +40,7 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
             |b| {
                 b.iter(|| {
                     assemble_ppe(
-                        &ctx, &ones, &ones, &src, 1e-3, &dirichlet, None, &mut m, &mut rhs,
+                        &ctx, ones, ones, &src, 1e-3, &dirichlet, None, &mut m, &mut rhs,
                     )
                     .unwrap();
                     black_box(m.values[0])
@@ -55,7 +54,7 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
             group.bench_function(BenchmarkId::new(format!("{name}/{}", D::NAME), n), |b| {
                 b.iter(|| {
                     assemble_dg(
-                        &ctx, &ones, &a, &src, 1e-3, h, &dirichlet, None, &mut m, &mut rhs,
+                        &ctx, ones, &a, &src, 1e-3, h, &dirichlet, None, &mut m, &mut rhs,
                     )
                     .unwrap();
                     black_box(m.values[0])

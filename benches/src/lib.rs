@@ -10,7 +10,9 @@ pub mod hypre;
 use sph_cases::{CaseKind, Scene};
 use sph_core::testing::{SplitMix64, lattice};
 use sph_core::{Dim, VectorOps};
+use sph_kernels::QuinticSpline;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
+use sph_operators::{SphContext, free_surface_indicator};
 
 /// A perturbed lattice of about `n` particles (spacing `dx = 1`, jitter ±10 %), seeded, in
 /// lattice (x-fastest) order: the memory order a simulation keeps its particles in.
@@ -58,4 +60,43 @@ pub fn self_join<D: Dim>(pts: &[D::Vector]) -> NeighborList {
 /// A one-step scene of the paper's drop (`case`) at spacing `dx`, Δt = 2e-4, default threshold.
 pub fn drop_scene(case: CaseKind, dx: f64) -> Scene {
     Scene::paper_drop(case, dx, 2e-4, 2e-4)
+}
+
+/// The pressure benches' block of water: [`particles`] with their [`self_join`], the quintic
+/// kernel at [`H`], unit volumes and the free-surface indicator `∇·r` of every particle.
+pub struct Block<D: Dim> {
+    /// Positions.
+    pub pts: Vec<D::Vector>,
+    /// Self-join neighbour list (the matrices' sparsity).
+    pub nl: NeighborList,
+    /// Quintic spline, `h` = [`H`].
+    pub kernel: QuinticSpline<D>,
+    /// Unit volumes (and densities).
+    pub ones: Vec<f64>,
+    /// `∇·r` per particle (free surface where it is small).
+    pub div_r: Vec<f64>,
+}
+
+impl<D: Dim> Block<D> {
+    /// A block of about `n` particles.
+    pub fn new(n: usize) -> Self {
+        let pts = particles::<D>(n);
+        let nl = self_join::<D>(&pts);
+        let kernel = QuinticSpline::<D>::new(H);
+        let ones = vec![1.0; pts.len()];
+        let mut div_r = vec![0.0; pts.len()];
+        free_surface_indicator(&SphContext::new(&pts, &ones, &nl, &kernel), &mut div_r);
+        Self {
+            pts,
+            nl,
+            kernel,
+            ones,
+            div_r,
+        }
+    }
+
+    /// The operator context of the block.
+    pub fn ctx(&self) -> SphContext<'_, D, QuinticSpline<D>> {
+        SphContext::new(&self.pts, &self.ones, &self.nl, &self.kernel)
+    }
 }

@@ -10,13 +10,11 @@
 //! exits with 1 if one of our solves failed (CI runs it at 10⁴ as a smoke test).
 //! `AMG_COMPARE_SIZES=10000,40000` chooses the sizes, `AMG_COMPARE_OURS_ONLY=1` skips hypre.
 
-use dgsph_benches::{H, hypre, particles, self_join};
+use dgsph_benches::{Block, hypre};
 use sph_core::{D2, VectorOps};
-use sph_kernels::QuinticSpline;
-use sph_operators::{SphContext, free_surface_indicator};
 use sph_pressure::{
-    AnySolver, CsrMatrix, CsrSystem, LinearSolver, MeanZeroGauge, SolveParams, SolverKind,
-    assemble_ppe,
+    AnySolver, CsrMatrix, CsrSystem, LinearSolver, MeanZeroGauge, SolveError, SolveInfo,
+    SolveParams, SolverKind, assemble_ppe,
 };
 
 fn main() {
@@ -31,14 +29,15 @@ fn main() {
     let ours_only = std::env::var_os("AMG_COMPARE_OURS_ONLY").is_some();
     let mut failed = false;
     for n in sizes {
-        let pts = particles::<D2>(n);
-        let nl = self_join::<D2>(&pts);
-        let kernel = QuinticSpline::<D2>::new(H);
+        let block = Block::<D2>::new(n);
+        let (pts, nl, ones, div_r, ctx) = (
+            &block.pts,
+            &block.nl,
+            &block.ones,
+            &block.div_r,
+            block.ctx(),
+        );
         let n = pts.len();
-        let ones = vec![1.0; n];
-        let ctx = SphContext::new(&pts, &ones, &nl, &kernel);
-        let mut div_r = vec![0.0; n];
-        free_surface_indicator(&ctx, &mut div_r);
         let side = (n as f64).sqrt();
         let src: Vec<f64> = pts
             .iter()
@@ -56,7 +55,7 @@ fn main() {
             let mut m = CsrMatrix::default();
             let mut rhs = vec![0.0; n];
             assemble_ppe(
-                &ctx, &ones, &ones, &src, 1.0, &dirichlet, None, &mut m, &mut rhs,
+                &ctx, ones, ones, &src, 1.0, &dirichlet, None, &mut m, &mut rhs,
             )
             .unwrap();
             let sys = CsrSystem {
@@ -83,20 +82,7 @@ fn main() {
             } else {
                 solver.solve(&sys, &mut x, &params)
             };
-            let total = t0.elapsed().as_secs_f64();
-            match info {
-                Ok(i) => println!(
-                    "| {name} | {n} | ours: BiCGSTAB + SA-AMG | {} | {:.3} | {:.3} | {:.3} |",
-                    i.iterations,
-                    i.setup_seconds,
-                    total - i.setup_seconds,
-                    total
-                ),
-                Err(e) => {
-                    failed = true;
-                    println!("| {name} | {n} | ours: BiCGSTAB + SA-AMG | failed: {e} | | | |")
-                }
-            }
+            failed |= !report(name, n, "ours: BiCGSTAB + SA-AMG", info, t0);
             // hypre, and ours on the same singular system (closed: mean removed from b).
             let b: Vec<f64> = if closed {
                 let mean = rhs.iter().sum::<f64>() / n as f64;
@@ -108,43 +94,26 @@ fn main() {
                 let singular = CsrSystem { rhs: &b, ..sys };
                 let mut x = vec![0.0; n];
                 let t0 = std::time::Instant::now();
-                match solver.solve(&singular, &mut x, &params) {
-                    Ok(i) => {
-                        let total = t0.elapsed().as_secs_f64();
-                        println!(
-                            "| {name} | {n} | ours on the singular matrix, mean-free b | {} | {:.3} | {:.3} | {:.3} |",
-                            i.iterations,
-                            i.setup_seconds,
-                            total - i.setup_seconds,
-                            total
-                        );
-                    }
-                    Err(e) => {
-                        failed = true;
-                        println!(
-                            "| {name} | {n} | ours on the singular matrix, mean-free b | failed: {e} | | | |"
-                        )
-                    }
-                }
+                let info = solver.solve(&singular, &mut x, &params);
+                failed |= !report(
+                    name,
+                    n,
+                    "ours on the singular matrix, mean-free b",
+                    info,
+                    t0,
+                );
             }
             let krylovs = if ours_only {
                 vec![]
             } else {
                 vec![hypre::Krylov::BiCgStab, hypre::Krylov::Pcg]
             };
+            let mut scratch = vec![0.0; n];
             for krylov in krylovs {
                 let mut x = vec![0.0; n];
                 let o = hypre::solve(sys.offsets, sys.cols, sys.values, &b, &mut x, tol, krylov);
                 // True relative residual of hypre's answer.
-                let mut r2 = 0.0;
-                for i in 0..n {
-                    let mut ax = 0.0;
-                    for k in sys.offsets[i]..sys.offsets[i + 1] {
-                        ax += sys.values[k] * x[sys.cols[k] as usize];
-                    }
-                    r2 += (b[i] - ax).powi(2);
-                }
-                let rel = r2.sqrt() / b.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let rel = CsrSystem { rhs: &b, ..sys }.rel_residual(&x, &mut scratch);
                 println!(
                     "| {name} | {n} | hypre: {krylov:?} + BoomerAMG (residual {rel:.1e}) | {} | {:.3} | {:.3} | {:.3} |",
                     o.iterations,
@@ -157,5 +126,31 @@ fn main() {
     }
     if failed {
         std::process::exit(1);
+    }
+}
+
+/// Prints the table row of one of our solves (started at `t0`); false if it failed.
+fn report(
+    name: &str,
+    n: usize,
+    solver: &str,
+    info: Result<SolveInfo, SolveError>,
+    t0: std::time::Instant,
+) -> bool {
+    let total = t0.elapsed().as_secs_f64();
+    match info {
+        Ok(i) => {
+            println!(
+                "| {name} | {n} | {solver} | {} | {:.3} | {:.3} | {total:.3} |",
+                i.iterations,
+                i.setup_seconds,
+                total - i.setup_seconds,
+            );
+            true
+        }
+        Err(e) => {
+            println!("| {name} | {n} | {solver} | failed: {e} | | | |");
+            false
+        }
     }
 }
