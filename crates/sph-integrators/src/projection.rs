@@ -5,14 +5,14 @@
 //! (warm-started from the previous pressure) → `uⁿ⁺¹ = u* − Δt ∇p/ρ` → `max |∇·uⁿ⁺¹|`.
 
 use crate::report::{Phase, PhaseTimes};
-use crate::simulation::Engine;
+use crate::simulation::{Engine, engine_context};
 use crate::{StepError, report::DetFStats};
 use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
 use sph_neighbors::NeighborSearch;
 use sph_operators::{
     SphContext, correction_matrices, deformation_gradient, divergence, free_surface_indicator,
-    free_surface_scan, gradient, invariants, velocity_gradient,
+    free_surface_scan, grad_factors, gradient, invariants, velocity_gradient,
 };
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_wall_rows,
@@ -61,12 +61,18 @@ pub(crate) fn prepare<D: Dim>(
         .build(x, e.kernel.support_radius())
         .map_err(|source| StepError::Neighbors { step, t, source })?;
     e.search.query(x, &mut e.neighbors);
+    {
+        sph_kernels::with_kernel!(&e.kernel, k => {
+            let ctx = SphContext::new(x, &e.volumes, &e.neighbors, k).with_periodic(e.periodic);
+            grad_factors(&ctx, &mut e.grad_factors);
+        });
+    }
     phases.add(Phase::Neighbors, clock);
     let clock = Instant::now();
     for ((v, m), rho) in e.volumes.iter_mut().zip(masses).zip(densities) {
         *v = m / rho;
     }
-    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
+    let ctx = engine_context!(e, x);
     let fallbacks = if e.config.renormalise {
         correction_matrices(
             &ctx,
@@ -119,7 +125,7 @@ pub(crate) fn project<D: Dim>(
     t: f64,
     phases: &mut PhaseTimes,
 ) -> Result<Projected, StepError> {
-    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
+    let ctx = engine_context!(e, x);
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     let consistent = l.filter(|_| e.config.consistent_laplacian);
     let mut hessian_fallbacks = 0;
@@ -273,7 +279,7 @@ pub(crate) fn det_f_stats<D: Dim>(
     disp: &[D::Vector],
     f: &mut [D::Matrix],
 ) -> DetFStats {
-    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
+    let ctx = engine_context!(e, x);
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     deformation_gradient(&ctx, disp, l, f);
     let (mut min, mut max, mut sum, mut count) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);

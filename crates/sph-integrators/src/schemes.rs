@@ -2,12 +2,12 @@
 
 use crate::projection::{Equation, det_f_stats, first_non_finite, prepare, project};
 use crate::report::{Phase, PhaseTimes};
-use crate::simulation::{Buffers, Engine};
+use crate::simulation::{Buffers, Engine, engine_context};
 use crate::{Shifting, Simulation, StepError, StepReport, Walls};
 use serde::{Deserialize, Serialize};
 use sph_core::Dim;
 use sph_core::{ParticleSet, VectorOps};
-use sph_operators::{SphContext, shifting_gradients, viscous_acceleration};
+use sph_operators::{shifting_gradients, viscous_acceleration};
 use std::time::Instant;
 
 /// One time-update scheme.
@@ -124,8 +124,7 @@ fn intermediate_velocity<D: Dim>(
     b.acc.fill(D::Vector::ZERO);
     if let Some(v) = fx.viscosity {
         let clock = Instant::now();
-        let ctx = SphContext::new(&p.positions, &e.volumes, &e.neighbors, &e.kernel)
-            .with_periodic(e.periodic);
+        let ctx = engine_context!(e, &p.positions);
         b.u_visc.copy_from_slice(&p.velocities);
         if let Some(w) = walls {
             w.no_slip_velocity(&ctx, &p.velocities, &mut b.u_visc[nf..]);
@@ -162,9 +161,12 @@ struct ShiftBuffers<'a, D: Dim> {
 }
 
 fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shifting, dt: f64) {
-    let ctx = SphContext::new(x, &e.volumes, &e.neighbors, &e.kernel).with_periodic(e.periodic);
     let l = e.config.renormalise.then_some(&e.corrections[..]);
-    shifting_gradients(&ctx, sh.spacing, b.u_new, l, b.grad_c, b.grad_u);
+    // The concentration term evaluates W per pair: choose the kernel once, outside the loop.
+    sph_kernels::with_kernel!(&e.kernel, k => {
+        let ctx = engine_context!(e, x, k);
+        shifting_gradients(&ctx, sh.spacing, b.u_new, l, b.grad_c, b.grad_u);
+    });
     let h = e.config.h;
     let cap = MAX_SHIFT * sh.spacing;
     let nf = e.fluid;

@@ -34,6 +34,9 @@ pub(crate) struct Engine<D: Dim> {
     pub(crate) kernel: AnyKernel<D>,
     pub(crate) search: AnySearch<D>,
     pub(crate) neighbors: NeighborList,
+    /// Kernel-gradient factors `(dW/dr)/r` of every entry of `neighbors`, computed with the
+    /// lists and read by every pass of the step ([`Engine::context`]).
+    pub(crate) grad_factors: Vec<f64>,
     pub(crate) solver: AnySolver,
     pub(crate) volumes: Vec<f64>,
     pub(crate) corrections: Vec<D::Matrix>,
@@ -51,10 +54,29 @@ pub(crate) struct Engine<D: Dim> {
     pub(crate) saved: SavedLists<D>,
 }
 
+/// The operators' view of configuration `x` from engine `e`: its volumes, neighbour lists,
+/// kernel, periodic axes and the lists' kernel-gradient factors. `x` must be the configuration
+/// the lists were last built for by [`prepare`](crate::projection::prepare). A macro, not a
+/// method, so the engine's other fields stay free to borrow mutably beside it.
+macro_rules! engine_context {
+    ($e:expr, $x:expr) => {
+        engine_context!($e, $x, &$e.kernel)
+    };
+    // With the concrete kernel `$k` taken out of the engine's `AnyKernel` by
+    // `sph_kernels::with_kernel!`, for passes that still evaluate the kernel per pair.
+    ($e:expr, $x:expr, $k:expr) => {
+        sph_operators::SphContext::new($x, &$e.volumes, &$e.neighbors, $k)
+            .with_periodic($e.periodic)
+            .with_grad_factors(&$e.grad_factors)
+    };
+}
+pub(crate) use engine_context;
+
 /// Neighbour lists, volumes, corrections and `∇·r` of one configuration, kept for later reuse
 /// (swapped with the engine's, never copied).
 pub(crate) struct SavedLists<D: Dim> {
     pub(crate) neighbors: NeighborList,
+    pub(crate) grad_factors: Vec<f64>,
     pub(crate) volumes: Vec<f64>,
     pub(crate) corrections: Vec<D::Matrix>,
     pub(crate) div_r: Vec<f64>,
@@ -72,6 +94,7 @@ impl<D: Dim> Engine<D> {
         s.corrections.resize(n, D::Matrix::IDENTITY);
         s.div_r.resize(n, 0.0);
         std::mem::swap(&mut self.neighbors, &mut s.neighbors);
+        std::mem::swap(&mut self.grad_factors, &mut s.grad_factors);
         std::mem::swap(&mut self.volumes, &mut s.volumes);
         std::mem::swap(&mut self.corrections, &mut s.corrections);
         std::mem::swap(&mut self.div_r, &mut s.div_r);
@@ -129,6 +152,7 @@ impl<D: Dim> Simulation<D> {
             periodic,
             search,
             neighbors: NeighborList::new(),
+            grad_factors: Vec::new(),
             solver: AnySolver::new(config.solver),
             volumes: Vec::new(),
             corrections: Vec::new(),
@@ -143,6 +167,7 @@ impl<D: Dim> Simulation<D> {
             gauge: MeanZeroGauge::default(),
             saved: SavedLists {
                 neighbors: NeighborList::new(),
+                grad_factors: Vec::new(),
                 volumes: Vec::new(),
                 corrections: Vec::new(),
                 div_r: Vec::new(),

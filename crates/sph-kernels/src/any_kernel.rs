@@ -50,7 +50,9 @@ impl KernelKind {
 }
 
 /// A kernel chosen at run time. The `match` is inlined into pair loops, so this costs a
-/// predictable branch, not a virtual call.
+/// predictable branch, not a virtual call; where a short loop pays even that (it keeps the
+/// loop from being compiled as straight-line code), [`with_kernel!`](crate::with_kernel)
+/// takes the branch once, outside it.
 #[derive(Clone, Copy, Debug)]
 pub enum AnyKernel<D: Dim> {
     /// See [`QuinticSpline`].
@@ -88,4 +90,25 @@ impl<D: Dim> Kernel<D> for AnyKernel<D> {
     fn dw_dr(&self, r: f64) -> f64 {
         dispatch!(self, k => k.dw_dr(r))
     }
+}
+
+/// Runs `$body` with `$k` bound to the concrete kernel inside an [`AnyKernel`] reference: the
+/// kernel is chosen once and `$body` is compiled once per kernel type, so the pair loops in it
+/// carry no per-pair branch on the kernel.
+///
+/// ```
+/// use sph_kernels::{Kernel, KernelKind, with_kernel};
+/// let any = KernelKind::WendlandC2.build::<sph_core::D2>(0.1);
+/// let w0 = with_kernel!(&any, k => k.w(0.0));
+/// assert_eq!(w0, any.w(0.0));
+/// ```
+#[macro_export]
+macro_rules! with_kernel {
+    ($any:expr, $k:ident => $body:expr) => {
+        match $any {
+            $crate::AnyKernel::QuinticSpline($k) => $body,
+            $crate::AnyKernel::WendlandC2($k) => $body,
+            $crate::AnyKernel::CubicSpline($k) => $body,
+        }
+    };
 }

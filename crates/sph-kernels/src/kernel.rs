@@ -13,14 +13,17 @@ pub trait Kernel<D: Dim>: Send + Sync + fmt::Debug + Clone {
     fn w(&self, r: f64) -> f64;
     /// `dW/dr (r)`; zero at `r = 0` and beyond the support.
     fn dw_dr(&self, r: f64) -> f64;
+    /// The scalar `s_ij = (dW/dr)(r) / r` of `∇_i W(x_ij) = s_ij x_ij`, for `r = |x_ij|`; zero
+    /// for `r = 0`. [`grad_w`](Kernel::grad_w) is `x_ij · grad_factor(x_ij)`, so a factor
+    /// computed once per pair and reused gives the same bits as a fresh `grad_w`.
+    #[inline(always)]
+    fn grad_factor(&self, x_ij: D::Vector) -> f64 {
+        let r = x_ij.length();
+        if r > 0.0 { self.dw_dr(r) / r } else { 0.0 }
+    }
     /// `∇_i W(x_ij) = dW/dr · x_ij / r` with `x_ij = x_i − x_j`; zero for `r = 0`.
     #[inline(always)]
     fn grad_w(&self, x_ij: D::Vector) -> D::Vector {
-        let r = x_ij.length();
-        if r > 0.0 {
-            x_ij * (self.dw_dr(r) / r)
-        } else {
-            D::Vector::ZERO
-        }
+        x_ij * self.grad_factor(x_ij)
     }
 }

@@ -92,3 +92,39 @@ impl NeighborList {
         self.offsets == other.offsets && self.indices == other.indices
     }
 }
+
+/// Rows per rayon work item of [`for_each_row_mut`].
+const ROW_CHUNK: usize = 256;
+
+/// Calls `f(row, row_values)` for every row of a CSR pattern with row `offsets` (e.g.
+/// [`NeighborList::offsets`]), in parallel, giving each call the mutable slice of `values`
+/// that belongs to its own row: for arrays with one entry per neighbour-list entry (matrix
+/// values, per-pair kernel factors). Recursive splitting; no allocation, deterministic.
+pub fn for_each_row_mut<T: Send, F>(offsets: &[usize], values: &mut [T], f: &F)
+where
+    F: Fn(usize, &mut [T]) + Sync,
+{
+    fn rec<T: Send, F: Fn(usize, &mut [T]) + Sync>(
+        rows: std::ops::Range<usize>,
+        offsets: &[usize],
+        values: &mut [T],
+        f: &F,
+    ) {
+        if rows.len() <= ROW_CHUNK {
+            let base = offsets[rows.start];
+            for i in rows {
+                let (a, b) = (offsets[i] - base, offsets[i + 1] - base);
+                f(i, &mut values[a..b]);
+            }
+            return;
+        }
+        let mid = rows.start + rows.len() / 2;
+        let (lo, hi) = values.split_at_mut(offsets[mid] - offsets[rows.start]);
+        rayon::join(
+            || rec(rows.start..mid, offsets, lo, f),
+            || rec(mid..rows.end, offsets, hi, f),
+        );
+    }
+    let n = offsets.len() - 1;
+    rec(0..n, offsets, values, f);
+}

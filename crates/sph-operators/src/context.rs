@@ -19,6 +19,25 @@ pub struct SphContext<'a, D: Dim, K: Kernel<D>> {
     pub kernel: &'a K,
     /// Periodic axes, if any: pair vectors are then minimum images (see [`SphContext::pair`]).
     pub periodic: Option<Periodic<D>>,
+    /// Kernel-gradient factors `s_ij = (dW/dr)/r` of every neighbour-list entry, if computed
+    /// once for the step's passes ([`grad_factors`], attached by
+    /// [`SphContext::with_grad_factors`]); `None`: each pass evaluates the kernel itself.
+    /// Both give the same bits.
+    pub grad_factors: Option<&'a [f64]>,
+}
+
+/// One neighbour of particle `i` as the pair loops see it.
+#[derive(Clone, Copy, Debug)]
+pub struct Pair<V> {
+    /// Position of the entry in the neighbour list's row `i` (the column of a matrix built on
+    /// the list's pattern).
+    pub k: usize,
+    /// The neighbour's index `j`.
+    pub j: usize,
+    /// `x_ij = x_i − x_j` (minimum image on periodic axes).
+    pub x_ij: V,
+    /// `∇_i W(x_ij)`.
+    pub grad_w: V,
 }
 
 impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
@@ -42,7 +61,22 @@ impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
             neighbors,
             kernel,
             periodic: None,
+            grad_factors: None,
         }
+    }
+
+    /// The same context reading the kernel-gradient factors `factors` (from [`grad_factors`]
+    /// on the same positions, neighbour lists, kernel and periodic axes) instead of evaluating
+    /// the kernel in every pass. Panics if `factors` does not have one entry per neighbour-list
+    /// entry (a programming error).
+    pub fn with_grad_factors(mut self, factors: &'a [f64]) -> Self {
+        assert_eq!(
+            factors.len(),
+            self.neighbors.nnz(),
+            "one kernel-gradient factor per neighbour-list entry"
+        );
+        self.grad_factors = Some(factors);
+        self
     }
 
     /// The same context on a periodic domain (`None`: not periodic).
@@ -72,6 +106,45 @@ impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
         self.positions.is_empty()
     }
 
+    /// Calls `f` for every neighbour of particle `i`, in the order of the neighbour list, with
+    /// its pair vector and kernel gradient `∇_i W_ij = s_ij x_ij`: `s_ij` read from the
+    /// attached factors, or, when there are none, evaluated ([`Kernel::grad_factor`]) for up to
+    /// [`PAIR_BLOCK`] entries at a time into a stack buffer. Either way `f` has a single call
+    /// site in one loop without branches on the cache (so it is inlined and the loop stays
+    /// straight-line code), and the bits are the same.
+    #[inline(always)]
+    pub fn for_each_pair(&self, i: usize, mut f: impl FnMut(Pair<D::Vector>)) {
+        let xi = self.positions[i];
+        let (a, b) = (self.neighbors.offsets()[i], self.neighbors.offsets()[i + 1]);
+        let indices = self.neighbors.indices();
+        let mut buf = [0.0; PAIR_BLOCK];
+        let mut start = a;
+        while start < b {
+            let end = b.min(start + PAIR_BLOCK);
+            let row = &indices[start..end];
+            let factors: &[f64] = match self.grad_factors {
+                Some(all) => &all[start..end],
+                None => {
+                    for (s, &j) in buf.iter_mut().zip(row) {
+                        *s = self.kernel.grad_factor(self.pair(xi, j as usize));
+                    }
+                    &buf[..row.len()]
+                }
+            };
+            for (k, (&j, &s)) in row.iter().zip(factors).enumerate() {
+                let j = j as usize;
+                let x_ij = self.pair(xi, j);
+                f(Pair {
+                    k: start - a + k,
+                    j,
+                    x_ij,
+                    grad_w: x_ij * s,
+                });
+            }
+            start = end;
+        }
+    }
+
     /// Neighbours of particle `i` as `usize` indices.
     #[inline(always)]
     pub fn neighbors_of(&self, i: usize) -> impl Iterator<Item = usize> + 'a {
@@ -89,9 +162,35 @@ pub fn laplacian_regulariser(h: f64) -> f64 {
 /// the Morris Laplacian and the Eq. 25 Hessian. `F_ij ≤ 0`; zero for `x_ij = 0`.
 #[inline(always)]
 pub fn pair_f<D: Dim, K: Kernel<D>>(kernel: &K, x_ij: D::Vector) -> f64 {
-    use sph_core::VectorOps;
-    x_ij.dot(kernel.grad_w(x_ij)) / (x_ij.length_squared() + laplacian_regulariser(kernel.h()))
+    pair_f_of::<D>(x_ij, kernel.grad_w(x_ij), kernel.h())
 }
+
+/// [`pair_f`] from the pair's kernel gradient `grad_w = ∇_i W(x_ij)` (as a
+/// [`Pair`] carries it) and the smoothing length `h`.
+#[inline(always)]
+pub fn pair_f_of<D: Dim>(x_ij: D::Vector, grad_w: D::Vector, h: f64) -> f64 {
+    use sph_core::VectorOps;
+    x_ij.dot(grad_w) / (x_ij.length_squared() + laplacian_regulariser(h))
+}
+
+/// `out[e] = s_ij = (dW/dr)(r_ij) / r_ij` for every entry `e` of the neighbour lists of `ctx`
+/// (0 for `r = 0`), computed once so the step's passes share it through
+/// [`SphContext::with_grad_factors`] instead of each evaluating the kernel (a square root, a
+/// division and the kernel polynomial per pair and pass). `out` is resized to the number of
+/// entries (no allocation once it has reached it).
+pub fn grad_factors<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, out: &mut Vec<f64>) {
+    out.resize(ctx.neighbors.nnz(), 0.0);
+    sph_neighbors::for_each_row_mut(ctx.neighbors.offsets(), out, &|i, row| {
+        let xi = ctx.positions[i];
+        for (s, &j) in row.iter_mut().zip(ctx.neighbors.row(i)) {
+            *s = ctx.kernel.grad_factor(ctx.pair(xi, j as usize));
+        }
+    });
+}
+
+/// Neighbour-list entries whose kernel-gradient factors [`SphContext::for_each_pair`]
+/// evaluates at a time when no factors are attached.
+pub const PAIR_BLOCK: usize = 64;
 
 /// Particles per rayon work item.
 pub(crate) const MIN_LEN: usize = 256;

@@ -36,13 +36,10 @@ pub fn correction_matrices<D: Dim, K: Kernel<D>>(
         .enumerate()
         .with_min_len(MIN_LEN)
         .map(|(i, l)| {
-            let xi = ctx.positions[i];
             let mut b = D::Matrix::ZERO;
-            for j in ctx.neighbors_of(i) {
-                let x_ij = ctx.pair(xi, j);
-                let g = ctx.kernel.grad_w(x_ij);
-                b += D::Matrix::outer(g, -x_ij) * ctx.volumes[j];
-            }
+            ctx.for_each_pair(i, |p| {
+                b += D::Matrix::outer(p.grad_w, -p.x_ij) * ctx.volumes[p.j];
+            });
             let gain = |m: &D::Matrix| {
                 let mut g: f64 = 0.0;
                 for r in 0..D::DIM {

@@ -21,13 +21,11 @@ pub fn divergence<D: Dim, K: Kernel<D>>(
     assert_eq!(out.len(), ctx.len());
     match corrections {
         None => gather(out, |i| {
-            let xi = ctx.positions[i];
             let ui = u[i];
             let mut s = 0.0;
-            for j in ctx.neighbors_of(i) {
-                let g = ctx.kernel.grad_w(ctx.pair(xi, j));
-                s += ctx.volumes[j] * (u[j] - ui).dot(g);
-            }
+            ctx.for_each_pair(i, |p| {
+                s += ctx.volumes[p.j] * (u[p.j] - ui).dot(p.grad_w);
+            });
             s
         }),
         Some(l) => gather(out, |i| raw_velocity_gradient(ctx, u, i).contract(&l[i])),
@@ -41,12 +39,10 @@ pub(crate) fn raw_velocity_gradient<D: Dim, K: Kernel<D>>(
     u: &[D::Vector],
     i: usize,
 ) -> D::Matrix {
-    let xi = ctx.positions[i];
     let ui = u[i];
     let mut m = D::Matrix::ZERO;
-    for j in ctx.neighbors_of(i) {
-        let g = ctx.kernel.grad_w(ctx.pair(xi, j));
-        m += D::Matrix::outer(u[j] - ui, g * ctx.volumes[j]);
-    }
+    ctx.for_each_pair(i, |p| {
+        m += D::Matrix::outer(u[p.j] - ui, p.grad_w * ctx.volumes[p.j]);
+    });
     m
 }

@@ -15,12 +15,10 @@ use sph_kernels::Kernel;
 pub fn free_surface_indicator<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, out: &mut [f64]) {
     assert_eq!(out.len(), ctx.len());
     gather(out, |i| {
-        let xi = ctx.positions[i];
         let mut s = 0.0;
-        for j in ctx.neighbors_of(i) {
-            let x_ij = ctx.pair(xi, j);
-            s -= ctx.volumes[j] * x_ij.dot(ctx.kernel.grad_w(x_ij));
-        }
+        ctx.for_each_pair(i, |p| {
+            s -= ctx.volumes[p.j] * p.x_ij.dot(p.grad_w);
+        });
         s
     });
 }
@@ -52,9 +50,9 @@ pub fn free_surface_scan<D: Dim, K: Kernel<D>>(
     gather(out, |i| {
         let xi = ctx.positions[i];
         let mut nu = D::Vector::ZERO;
-        for j in ctx.neighbors_of(i) {
-            nu += ctx.kernel.grad_w(ctx.pair(xi, j)) * ctx.volumes[j];
-        }
+        ctx.for_each_pair(i, |p| {
+            nu += p.grad_w * ctx.volumes[p.j];
+        });
         if let Some(l) = corrections {
             nu = l[i] * nu;
         }

@@ -32,13 +32,11 @@ pub fn gradient<D: Dim, K: Kernel<D>>(
         GradientForm::Symmetric => 1.0,
     };
     gather(out, |i| {
-        let xi = ctx.positions[i];
         let fi = sign * f[i];
         let mut acc = D::Vector::ZERO;
-        for j in ctx.neighbors_of(i) {
-            let g = ctx.kernel.grad_w(ctx.pair(xi, j));
-            acc += g * (ctx.volumes[j] * (f[j] + fi));
-        }
+        ctx.for_each_pair(i, |p| {
+            acc += p.grad_w * (ctx.volumes[p.j] * (f[p.j] + fi));
+        });
         corrected::<D>(corrections, i, acc)
     });
 }

@@ -56,19 +56,18 @@ pub(crate) fn eq25_stencil<D: Dim, K: Kernel<D>>(
     emit: &mut impl FnMut(usize, D::Matrix),
 ) {
     let eta2 = laplacian_regulariser(ctx.kernel.h());
-    let xi = ctx.positions[i];
-    for (k, j) in ctx.neighbors_of(i).enumerate() {
-        let x_ij = ctx.pair(xi, j);
+    ctx.for_each_pair(i, |p| {
+        let x_ij = p.x_ij;
         let r2 = x_ij.length_squared();
         if r2 == 0.0 {
-            continue;
+            return;
         }
-        let c = -ctx.volumes[j] * x_ij.dot(ctx.kernel.grad_w(x_ij)) / (r2 + eta2);
+        let c = -ctx.volumes[p.j] * x_ij.dot(p.grad_w) / (r2 + eta2);
         emit(
-            k,
+            p.k,
             D::Matrix::outer(x_ij, x_ij * (c * coefficient / r2)) - D::Matrix::IDENTITY * c,
         );
-    }
+    });
 }
 
 /// [`hessian`] with an explicit coefficient in place of `d + 2` (for the erratum test).

@@ -1,4 +1,4 @@
-use crate::context::{SphContext, gather, pair_f};
+use crate::context::{SphContext, gather, pair_f_of};
 use sph_core::Dim;
 use sph_kernels::Kernel;
 
@@ -14,11 +14,11 @@ pub fn laplacian<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, f: &[f64], ou
     assert_eq!(f.len(), ctx.len());
     assert_eq!(out.len(), ctx.len());
     gather(out, |i| {
-        let xi = ctx.positions[i];
+        let h = ctx.kernel.h();
         let mut s = 0.0;
-        for j in ctx.neighbors_of(i) {
-            s += ctx.volumes[j] * (f[i] - f[j]) * pair_f::<D, K>(ctx.kernel, ctx.pair(xi, j));
-        }
+        ctx.for_each_pair(i, |p| {
+            s += ctx.volumes[p.j] * (f[i] - f[p.j]) * pair_f_of::<D>(p.x_ij, p.grad_w, h);
+        });
         2.0 * s
     });
 }

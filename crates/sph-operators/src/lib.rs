@@ -77,7 +77,9 @@ mod shifting;
 mod test_support;
 mod viscosity;
 
-pub use context::{SphContext, laplacian_regulariser, pair_f};
+pub use context::{
+    PAIR_BLOCK, Pair, SphContext, grad_factors, laplacian_regulariser, pair_f, pair_f_of,
+};
 pub use correction::{CorrectionStats, correction_matrices};
 pub use deformation::{Invariants, deformation_gradient, invariants, velocity_gradient};
 pub use density::{density_at_points, density_summation};

@@ -22,14 +22,12 @@ pub fn concentration_gradient<D: Dim, K: Kernel<D>>(
     assert_eq!(out.len(), ctx.len());
     let w_dp = ctx.kernel.w(spacing);
     gather(out, |i| {
-        let xi = ctx.positions[i];
         let mut g = D::Vector::ZERO;
-        for j in ctx.neighbors_of(i) {
-            if j != i {
-                let x_ij = ctx.pair(xi, j);
-                g += concentration_term(ctx, x_ij, j, ctx.kernel.grad_w(x_ij), w_dp);
+        ctx.for_each_pair(i, |p| {
+            if p.j != i {
+                g += concentration_term(ctx, p.x_ij, p.j, p.grad_w, w_dp);
             }
-        }
+        });
         g
     });
 }
@@ -75,18 +73,15 @@ pub fn shifting_gradients<D: Dim, K: Kernel<D>>(
         .enumerate()
         .with_min_len(MIN_LEN)
         .for_each(|(i, (gc, gu))| {
-            let xi = ctx.positions[i];
             let ui = u[i];
             let mut c = D::Vector::ZERO;
             let mut m = D::Matrix::ZERO;
-            for j in ctx.neighbors_of(i) {
-                let x_ij = ctx.pair(xi, j);
-                let g = ctx.kernel.grad_w(x_ij);
-                m += D::Matrix::outer(u[j] - ui, g * ctx.volumes[j]);
-                if j != i {
-                    c += concentration_term(ctx, x_ij, j, g, w_dp);
+            ctx.for_each_pair(i, |p| {
+                m += D::Matrix::outer(u[p.j] - ui, p.grad_w * ctx.volumes[p.j]);
+                if p.j != i {
+                    c += concentration_term(ctx, p.x_ij, p.j, p.grad_w, w_dp);
                 }
-            }
+            });
             *gc = c;
             *gu = match corrections {
                 Some(l) => m * l[i].transpose(),

@@ -585,3 +585,79 @@ fn eq25_hessian_entry_errors_3d() {
         "Wendland {w:?}"
     );
 }
+
+sph_core::dim_tests! {
+    /// `for_each_pair` yields every entry of the row in list order, with `k` its position in
+    /// the row and `∇W` bitwise equal to `Kernel::grad_w`, with and without attached factors.
+    /// The quintic spline at h = 1.3 dx has rows longer than `PAIR_BLOCK` in 3D (about 250
+    /// entries), so the uncached path's blocks and their offsets are exercised there.
+    fn for_each_pair_yields_the_row_with_the_kernel_gradient_bitwise<D>() {
+        let lat = Lattice::<D>::new(KernelKind::QuinticSpline, 1.3, 0.2);
+        let ctx = SphContext::new(&lat.positions, &lat.volumes, &lat.neighbors, &lat.kernel);
+        let mut factors = Vec::new();
+        grad_factors(&ctx, &mut factors);
+        let cached = ctx.with_grad_factors(&factors);
+        let longest = (0..lat.len()).map(|i| lat.neighbors.row(i).len()).max().unwrap();
+        if D::DIM == 3 {
+            assert!(longest > PAIR_BLOCK, "3D rows span several blocks ({longest} entries)");
+        }
+        for c in [&ctx, &cached] {
+            for i in 0..lat.len() {
+                let row = lat.neighbors.row(i);
+                let mut seen = 0;
+                c.for_each_pair(i, |p| {
+                    assert_eq!(p.k, seen);
+                    assert_eq!(p.j, row[p.k] as usize);
+                    let x_ij = lat.positions[i] - lat.positions[p.j];
+                    assert!(p.x_ij == x_ij);
+                    assert!(p.grad_w == lat.kernel.grad_w(x_ij), "∇W of pair ({i}, {})", p.j);
+                    seen += 1;
+                });
+                assert_eq!(seen, row.len());
+            }
+        }
+    }
+
+    /// Every operator gives the same bits with the step's shared kernel-gradient factors as
+    /// with its own kernel evaluations (the engine attaches the factors; the operators' other
+    /// tests run without them).
+    fn operators_give_the_same_bits_with_shared_grad_factors<D>() {
+        for kind in [KernelKind::WendlandC2, KernelKind::QuinticSpline] {
+            let lat = Lattice::<D>::new(kind, 1.3, 0.2);
+            let n = lat.len();
+            let lin = Linear::<D>::new(9);
+            let f: Vec<f64> = lat.positions.iter().map(|x| lin.f(x) + x.length_squared()).collect();
+            let u: Vec<D::Vector> = lat.positions.iter().map(|x| lin.u(x) * x.length()).collect();
+            let masses = vec![1.0; n];
+            let densities: Vec<f64> = (0..n).map(|i| 1.0 + 0.01 * (i % 5) as f64).collect();
+            let ctx = SphContext::new(&lat.positions, &lat.volumes, &lat.neighbors, &lat.kernel);
+            let mut factors = Vec::new();
+            grad_factors(&ctx, &mut factors);
+            let run = |c: &SphContext<'_, D, sph_kernels::AnyKernel<D>>| {
+                let mut l = vec![D::Matrix::ZERO; n];
+                correction_matrices(c, 1e-3, 5.0, &mut l);
+                let mut grad = vec![D::Vector::ZERO; n];
+                gradient(c, &f, GradientForm::Difference, Some(&l), &mut grad);
+                let mut div = vec![0.0; n];
+                divergence(c, &u, None, &mut div);
+                let mut lap = vec![0.0; n];
+                laplacian(c, &f, &mut lap);
+                let mut hess = vec![D::Matrix::ZERO; n];
+                hessian(c, &f, &mut hess);
+                let mut visc = vec![D::Vector::ZERO; n];
+                viscous_acceleration(c, &masses, &densities, 0.01, &u, &mut visc);
+                let (mut gc, mut gu) = (vec![D::Vector::ZERO; n], vec![D::Matrix::ZERO; n]);
+                shifting_gradients(c, lat.dx, &u, Some(&l), &mut gc, &mut gu);
+                let mut div_r = vec![0.0; n];
+                free_surface_indicator(c, &mut div_r);
+                let mut surface = vec![false; n];
+                free_surface_scan(c, Some(&l), &mut surface);
+                (l, grad, div, lap, hess, visc, gc, gu, div_r, surface)
+            };
+            let own = run(&ctx);
+            let shared = run(&ctx.with_grad_factors(&factors));
+            assert!(own.1.iter().any(|g| g.length() > 0.0));
+            assert!(own == shared, "{kind:?}: an operator differs with shared factors");
+        }
+    }
+}

@@ -1,7 +1,7 @@
 //! Laminar viscosity (Morris, Fox & Zhu 1997), the explicit viscous term of the momentum
 //! equation (paper Eq. 1, `∇·(2μD)/ρ` for constant μ and ∇·u = 0).
 
-use crate::context::{SphContext, pair_f};
+use crate::context::{SphContext, pair_f_of};
 use sph_core::{Dim, VectorOps};
 use sph_kernels::Kernel;
 
@@ -26,17 +26,18 @@ pub fn viscous_acceleration<D: Dim, K: Kernel<D>>(
     assert_eq!(acc.len(), ctx.len());
     // Gather: each particle reads its neighbours and writes only its own slot.
     let add = |i: usize| {
-        let xi = ctx.positions[i];
+        let h = ctx.kernel.h();
         let mut a = D::Vector::ZERO;
-        for j in ctx.neighbors_of(i) {
+        ctx.for_each_pair(i, |p| {
+            let j = p.j;
             if j == i {
-                continue;
+                return;
             }
             let mu_sum = nu * (densities[i] + densities[j]);
             let c = masses[j] * mu_sum / (densities[i] * densities[j])
-                * pair_f::<D, K>(ctx.kernel, ctx.pair(xi, j));
+                * pair_f_of::<D>(p.x_ij, p.grad_w, h);
             a += (u[i] - u[j]) * c;
-        }
+        });
         a
     };
     use rayon::prelude::*;

@@ -4,7 +4,7 @@ use crate::csr::{CsrMatrix, for_each_row_mut};
 use crate::error::PressureError;
 use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
-use sph_operators::{SphContext, hessian_stencil_eq25, hessian_stencil_fit, pair_f};
+use sph_operators::{SphContext, hessian_stencil_eq25, hessian_stencil_fit, pair_f_of};
 
 /// Discrete Hessian used in the DG equation.
 pub use sph_operators::HessianForm as DgHessian;
@@ -51,18 +51,18 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
         let Some((cols, diag)) = begin_row(nl.row(i), i, dirichlet, row) else {
             return;
         };
-        let xi = ctx.positions[i];
+        let h = ctx.kernel.h();
         let mut sum = 0.0;
-        for (k, &j) in cols.iter().enumerate() {
-            let j = j as usize;
+        ctx.for_each_pair(i, |p| {
+            let j = p.j;
             if j == i {
-                continue;
+                return;
             }
             let rho = densities[i] + densities[j];
-            let c = -masses[j] * 8.0 / (rho * rho) * pair_f::<D, K>(ctx.kernel, ctx.pair(xi, j));
+            let c = -masses[j] * 8.0 / (rho * rho) * pair_f_of::<D>(p.x_ij, p.grad_w, h);
             sum += c;
-            row[k] = -c;
-        }
+            row[p.k] = -c;
+        });
         if let Some(l) = consistent {
             sum += linear_consistent(ctx, i, cols, diag, &l[i], row);
         }
@@ -174,16 +174,15 @@ fn linear_consistent<D: Dim, K: Kernel<D>>(
         }
     }
     let mut added = 0.0;
-    for (k, &j) in cols.iter().enumerate() {
-        let j = j as usize;
-        if k == diag {
-            continue;
+    ctx.for_each_pair(i, |p| {
+        if p.k == diag {
+            return;
         }
-        let g = *l * ctx.kernel.grad_w(ctx.pair(xi, j));
-        let delta = ctx.volumes[j] * s_i.dot(g);
-        row[k] -= delta;
+        let g = *l * p.grad_w;
+        let delta = ctx.volumes[p.j] * s_i.dot(g);
+        row[p.k] -= delta;
         added += delta;
-    }
+    });
     added
 }
 

@@ -1,4 +1,5 @@
 use rayon::prelude::*;
+pub(crate) use sph_neighbors::for_each_row_mut;
 
 /// A square sparse matrix in compressed sparse row form whose pattern is borrowed from a
 /// neighbour list (row offsets and sorted column indices) and whose values it owns.
@@ -51,37 +52,6 @@ fn row_dot(values: &[f64], cols: &[u32], x: &[f64]) -> f64 {
         s[0] += v * x[c as usize];
     }
     (s[0] + s[1]) + (s[2] + s[3])
-}
-
-/// Calls `f(row, row_values)` for every row, in parallel, giving each call the mutable slice
-/// of its own row (recursive splitting; no allocation, deterministic).
-pub(crate) fn for_each_row_mut<T: Send, F>(offsets: &[usize], values: &mut [T], f: &F)
-where
-    F: Fn(usize, &mut [T]) + Sync,
-{
-    fn rec<T: Send, F: Fn(usize, &mut [T]) + Sync>(
-        rows: std::ops::Range<usize>,
-        offsets: &[usize],
-        values: &mut [T],
-        f: &F,
-    ) {
-        if rows.len() <= ROW_CHUNK {
-            let base = offsets[rows.start];
-            for i in rows {
-                let (a, b) = (offsets[i] - base, offsets[i + 1] - base);
-                f(i, &mut values[a..b]);
-            }
-            return;
-        }
-        let mid = rows.start + rows.len() / 2;
-        let (lo, hi) = values.split_at_mut(offsets[mid] - offsets[rows.start]);
-        rayon::join(
-            || rec(rows.start..mid, offsets, lo, f),
-            || rec(mid..rows.end, offsets, hi, f),
-        );
-    }
-    let n = offsets.len() - 1;
-    rec(0..n, offsets, values, f);
 }
 
 /// [`for_each_row_mut`] over two arrays of the same pattern: `f(row, a_row, b_row)`.
