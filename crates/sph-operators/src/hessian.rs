@@ -48,6 +48,37 @@ pub fn hessian_stencil_eq25<D: Dim, K: Kernel<D>>(
     eq25_stencil(ctx, i, (D::DIM + 2) as f64, &mut emit);
 }
 
+/// The Eq. (25) stencil contracted with a matrix `M` (the DG pressure equation's `cof(A_i)`,
+/// paper Eq. 23): calls `emit(k, M : C_ij)` for the `k`-th neighbour `j` of particle `i`, with
+/// [`hessian_stencil_eq25`]'s `C_ij`, computed without forming it:
+///
+/// ```text
+/// M : C_ij = −V_j F_ij ((d + 2) x_ijᵀ M x_ij / r_ij² − tr M)
+/// ```
+///
+/// (`M : (x⊗x) = xᵀ M x`, `M : I = tr M`). Equal to contracting the matrices to round-off
+/// (tested, 2D and 3D). Zero-distance pairs are not emitted.
+#[inline]
+pub fn hessian_stencil_eq25_contracted<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    i: usize,
+    m: &D::Matrix,
+    mut emit: impl FnMut(usize, f64),
+) {
+    let eta2 = laplacian_regulariser(ctx.kernel.h());
+    let coefficient = (D::DIM + 2) as f64;
+    let trace = m.trace();
+    ctx.for_each_pair(i, |p| {
+        let x_ij = p.x_ij;
+        let r2 = x_ij.length_squared();
+        if r2 == 0.0 {
+            return;
+        }
+        let c = -ctx.volumes[p.j] * x_ij.dot(p.grad_w) / (r2 + eta2);
+        emit(p.k, c * (coefficient * x_ij.dot(*m * x_ij) / r2 - trace));
+    });
+}
+
 #[inline(always)]
 pub(crate) fn eq25_stencil<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,

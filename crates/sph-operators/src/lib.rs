@@ -86,7 +86,7 @@ pub use density::{density_at_points, density_summation};
 pub use divergence::divergence;
 pub use free_surface::{free_surface_indicator, free_surface_scan};
 pub use gradient::{GradientForm, gradient};
-pub use hessian::{HessianForm, hessian, hessian_stencil_eq25};
+pub use hessian::{HessianForm, hessian, hessian_stencil_eq25, hessian_stencil_eq25_contracted};
 pub use laplacian::laplacian;
 pub use quadratic_fit::{QuadraticFitStats, hessian_quadratic_fit, hessian_stencil_fit};
 pub use shifting::{concentration_gradient, shifting_gradients};

@@ -661,3 +661,31 @@ sph_core::dim_tests! {
         }
     }
 }
+
+sph_core::dim_tests! {
+    /// The contracted Eq. (25) stencil equals `M : C_ij` of the matrix stencil, entry by entry,
+    /// to round-off, for a non-symmetric `M` (as `cof(A)` is), and emits the same entries.
+    fn contracted_eq25_stencil_equals_the_contracted_matrices<D>() {
+        let lat = Lattice::<D>::new(KernelKind::QuinticSpline, 1.3, 0.2);
+        let mut rng = SplitMix64::new(11);
+        let m = D::Matrix::from_fn(|r, c| rng.uniform(-1.0, 1.0) + if r == c { 2.0 } else { 0.0 });
+        lat.with_ctx(|ctx| {
+            let mut worst: f64 = 0.0;
+            for i in 0..lat.len() {
+                let mut full = Vec::new();
+                hessian_stencil_eq25(ctx, i, |k, c| full.push((k, m.contract(&c))));
+                let mut short = Vec::new();
+                hessian_stencil_eq25_contracted(ctx, i, &m, |k, s| short.push((k, s)));
+                assert_eq!(full.len(), short.len());
+                assert!(full.len() + 1 >= lat.neighbors.row(i).len(), "every pair but the particle itself");
+                // Relative to the row's largest entry (a single entry may cancel to ~0).
+                let scale = full.iter().fold(0.0f64, |s, e| s.max(e.1.abs()));
+                for ((k1, a), (k2, b)) in full.iter().zip(&short) {
+                    assert_eq!(k1, k2);
+                    worst = worst.max((a - b).abs() / scale);
+                }
+            }
+            assert!(worst < 1e-12, "largest relative difference {worst:e}");
+        });
+    }
+}

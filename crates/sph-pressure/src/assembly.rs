@@ -4,7 +4,7 @@ use crate::csr::{CsrMatrix, for_each_row_mut};
 use crate::error::PressureError;
 use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
-use sph_operators::{SphContext, hessian_stencil_eq25, hessian_stencil_fit, pair_f_of};
+use sph_operators::{SphContext, hessian_stencil_eq25_contracted, hessian_stencil_fit, pair_f_of};
 
 /// Discrete Hessian used in the DG equation.
 pub use sph_operators::HessianForm as DgHessian;
@@ -115,16 +115,20 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
         let cof = a[i].cofactor();
         let inv_rho = 1.0 / densities[i];
         let mut sum = 0.0;
-        let mut emit = |k: usize, c: D::Matrix| {
-            // Negated row: −s_ij on p_j, +Σ s_ij on p_i, with s_ij = cof(A):C_ij / ρ_i.
-            let s = cof.contract(&c) * inv_rho;
-            sum += s;
-            row[k] -= s;
-        };
+        // Negated row: −s_ij on p_j, +Σ s_ij on p_i, with s_ij = cof(A):C_ij / ρ_i.
         match hessian {
-            DgHessian::Eq25 => hessian_stencil_eq25(ctx, i, &mut emit),
+            DgHessian::Eq25 => hessian_stencil_eq25_contracted(ctx, i, &cof, |k, cc| {
+                let s = cc * inv_rho;
+                sum += s;
+                row[k] -= s;
+            }),
             DgHessian::QuadraticFit => {
-                if !hessian_stencil_fit(ctx, i, &mut emit) {
+                let emit = |k: usize, c: D::Matrix| {
+                    let s = cof.contract(&c) * inv_rho;
+                    sum += s;
+                    row[k] -= s;
+                };
+                if !hessian_stencil_fit(ctx, i, emit) {
                     fallbacks.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 }
             }
