@@ -6,7 +6,10 @@
 //! step's [`NeighborList`](neighbors::NeighborList) and a [`Kernel`](kernels::Kernel) — and writes
 //! one value per particle into a caller-owned slice (no allocation, one rayon task per chunk of
 //! particles, each particle writing only its own slot, so results do not depend on the thread
-//! count).
+//! count). Pair loops go through [`SphContext::for_each_pair`]; a step that runs several
+//! operators on one neighbour list computes the kernel-gradient factors once
+//! ([`grad_factors`]) and attaches them ([`SphContext::with_grad_factors`]) — same bits, less
+//! arithmetic.
 //!
 //! | operator | discrete form | paper |
 //! |---|---|---|
