@@ -12,7 +12,8 @@ use sph_kernels::Kernel;
 use sph_neighbors::NeighborSearch;
 use sph_operators::{
     SphContext, correction_matrices, deformation_gradient, divergence, free_surface_indicator,
-    free_surface_scan, grad_factors, gradient, invariants, velocity_gradient,
+    free_surface_scan, grad_factors, grad_factors_and_values, gradient, invariants,
+    velocity_gradient,
 };
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_wall_rows,
@@ -64,7 +65,12 @@ pub(crate) fn prepare<D: Dim>(
     {
         sph_kernels::with_kernel!(&e.kernel, k => {
             let ctx = SphContext::new(x, &e.volumes, &e.neighbors, k).with_periodic(e.periodic);
-            grad_factors(&ctx, &mut e.grad_factors);
+            if e.config.effects.shifting.is_some() {
+                grad_factors_and_values(&ctx, &mut e.grad_factors, &mut e.kernel_values);
+            } else {
+                grad_factors(&ctx, &mut e.grad_factors);
+                e.kernel_values.clear();
+            }
         });
     }
     phases.add(Phase::Neighbors, clock);

@@ -37,6 +37,9 @@ pub(crate) struct Engine<D: Dim> {
     /// Kernel-gradient factors `(dW/dr)/r` of every entry of `neighbors`, computed with the
     /// lists and read by every pass of the step ([`Engine::context`]).
     pub(crate) grad_factors: Vec<f64>,
+    /// Kernel values `W_ij` of every entry of `neighbors`, computed with the factors when the
+    /// scene declares shifting (whose concentration term reads them); empty otherwise.
+    pub(crate) kernel_values: Vec<f64>,
     pub(crate) solver: AnySolver,
     pub(crate) volumes: Vec<f64>,
     pub(crate) corrections: Vec<D::Matrix>,
@@ -64,11 +67,16 @@ macro_rules! engine_context {
     };
     // With the concrete kernel `$k` taken out of the engine's `AnyKernel` by
     // `sph_kernels::with_kernel!`, for passes that still evaluate the kernel per pair.
-    ($e:expr, $x:expr, $k:expr) => {
-        sph_operators::SphContext::new($x, &$e.volumes, &$e.neighbors, $k)
+    ($e:expr, $x:expr, $k:expr) => {{
+        let ctx = sph_operators::SphContext::new($x, &$e.volumes, &$e.neighbors, $k)
             .with_periodic($e.periodic)
-            .with_grad_factors(&$e.grad_factors)
-    };
+            .with_grad_factors(&$e.grad_factors);
+        if $e.kernel_values.is_empty() {
+            ctx
+        } else {
+            ctx.with_kernel_values(&$e.kernel_values)
+        }
+    }};
 }
 pub(crate) use engine_context;
 
@@ -77,6 +85,7 @@ pub(crate) use engine_context;
 pub(crate) struct SavedLists<D: Dim> {
     pub(crate) neighbors: NeighborList,
     pub(crate) grad_factors: Vec<f64>,
+    pub(crate) kernel_values: Vec<f64>,
     pub(crate) volumes: Vec<f64>,
     pub(crate) corrections: Vec<D::Matrix>,
     pub(crate) div_r: Vec<f64>,
@@ -95,6 +104,7 @@ impl<D: Dim> Engine<D> {
         s.div_r.resize(n, 0.0);
         std::mem::swap(&mut self.neighbors, &mut s.neighbors);
         std::mem::swap(&mut self.grad_factors, &mut s.grad_factors);
+        std::mem::swap(&mut self.kernel_values, &mut s.kernel_values);
         std::mem::swap(&mut self.volumes, &mut s.volumes);
         std::mem::swap(&mut self.corrections, &mut s.corrections);
         std::mem::swap(&mut self.div_r, &mut s.div_r);
@@ -153,6 +163,7 @@ impl<D: Dim> Simulation<D> {
             search,
             neighbors: NeighborList::new(),
             grad_factors: Vec::new(),
+            kernel_values: Vec::new(),
             solver: AnySolver::new(config.solver),
             volumes: Vec::new(),
             corrections: Vec::new(),
@@ -168,6 +179,7 @@ impl<D: Dim> Simulation<D> {
             saved: SavedLists {
                 neighbors: NeighborList::new(),
                 grad_factors: Vec::new(),
+                kernel_values: Vec::new(),
                 volumes: Vec::new(),
                 corrections: Vec::new(),
                 div_r: Vec::new(),

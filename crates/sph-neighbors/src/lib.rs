@@ -29,7 +29,7 @@ pub use any_search::{AnySearch, SearchKind};
 pub use cell_grid::CellGrid;
 pub use error::NeighborError;
 pub use kd_tree::KdTree;
-pub use neighbor_list::{NeighborList, for_each_row_mut};
+pub use neighbor_list::{NeighborList, for_each_row_mut, for_each_row_mut2};
 pub use search::{NeighborSearch, brute_force};
 #[cfg(test)]
 mod tests;

@@ -1,5 +1,5 @@
 use rayon::prelude::*;
-use sph_core::{Dim, Periodic};
+use sph_core::{Dim, Periodic, VectorOps};
 use sph_kernels::Kernel;
 use sph_neighbors::NeighborList;
 
@@ -24,6 +24,10 @@ pub struct SphContext<'a, D: Dim, K: Kernel<D>> {
     /// [`SphContext::with_grad_factors`]); `None`: each pass evaluates the kernel itself.
     /// Both give the same bits.
     pub grad_factors: Option<&'a [f64]>,
+    /// Kernel values `W_ij` of every neighbour-list entry, if computed once for the step
+    /// ([`grad_factors_and_values`], attached by [`SphContext::with_kernel_values`]); read
+    /// by [`SphContext::w_of`]. Same bits as evaluating the kernel.
+    pub kernel_values: Option<&'a [f64]>,
 }
 
 /// One neighbour of particle `i` as the pair loops see it.
@@ -32,6 +36,8 @@ pub struct Pair<V> {
     /// Position of the entry in the neighbour list's row `i` (the column of a matrix built on
     /// the list's pattern).
     pub k: usize,
+    /// Position of the entry in the whole list (index into per-entry arrays).
+    pub e: usize,
     /// The neighbour's index `j`.
     pub j: usize,
     /// `x_ij = x_i − x_j` (minimum image on periodic axes).
@@ -62,6 +68,7 @@ impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
             kernel,
             periodic: None,
             grad_factors: None,
+            kernel_values: None,
         }
     }
 
@@ -136,12 +143,36 @@ impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
                 let x_ij = self.pair(xi, j);
                 f(Pair {
                     k: start - a + k,
+                    e: start + k,
                     j,
                     x_ij,
                     grad_w: x_ij * s,
                 });
             }
             start = end;
+        }
+    }
+
+    /// The same context reading the kernel values `values` (from [`grad_factors_and_values`]
+    /// on the same positions, neighbour lists, kernel and periodic axes) in [`SphContext::w_of`].
+    /// Panics if `values` does not have one entry per neighbour-list entry.
+    pub fn with_kernel_values(mut self, values: &'a [f64]) -> Self {
+        assert_eq!(
+            values.len(),
+            self.neighbors.nnz(),
+            "one kernel value per neighbour-list entry"
+        );
+        self.kernel_values = Some(values);
+        self
+    }
+
+    /// `W(|x_ij|)` of a pair from [`SphContext::for_each_pair`]: read from the attached values,
+    /// or evaluated.
+    #[inline(always)]
+    pub fn w_of(&self, p: &Pair<D::Vector>) -> f64 {
+        match self.kernel_values {
+            Some(v) => v[p.e],
+            None => self.kernel.w(p.x_ij.length()),
         }
     }
 
@@ -184,6 +215,26 @@ pub fn grad_factors<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, out: &mut 
         let xi = ctx.positions[i];
         for (s, &j) in row.iter_mut().zip(ctx.neighbors.row(i)) {
             *s = ctx.kernel.grad_factor(ctx.pair(xi, j as usize));
+        }
+    });
+}
+
+/// [`grad_factors`] and, in `values`, the kernel values `W(r_ij)` of every entry, from one
+/// square root per pair (for a step whose passes also read `W` per pair: particle shifting's
+/// concentration term). Both are resized to the number of entries.
+pub fn grad_factors_and_values<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    factors: &mut Vec<f64>,
+    values: &mut Vec<f64>,
+) {
+    factors.resize(ctx.neighbors.nnz(), 0.0);
+    values.resize(ctx.neighbors.nnz(), 0.0);
+    sph_neighbors::for_each_row_mut2(ctx.neighbors.offsets(), factors, values, &|i, fr, vr| {
+        let xi = ctx.positions[i];
+        for ((s, w), &j) in fr.iter_mut().zip(vr.iter_mut()).zip(ctx.neighbors.row(i)) {
+            let x_ij = ctx.pair(xi, j as usize);
+            *s = ctx.kernel.grad_factor(x_ij);
+            *w = ctx.kernel.w(x_ij.length());
         }
     });
 }

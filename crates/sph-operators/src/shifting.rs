@@ -1,6 +1,6 @@
 //! Particle-shifting concentration gradient (Lind et al. 2012).
 
-use crate::context::{MIN_LEN, SphContext, gather};
+use crate::context::{MIN_LEN, Pair, SphContext, gather};
 use rayon::prelude::*;
 use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
@@ -25,30 +25,24 @@ pub fn concentration_gradient<D: Dim, K: Kernel<D>>(
         let mut g = D::Vector::ZERO;
         ctx.for_each_pair(i, |p| {
             if p.j != i {
-                g += concentration_term(ctx, p.x_ij, p.j, p.grad_w, w_dp);
+                g += concentration_term(ctx, &p, w_dp);
             }
         });
         g
     });
 }
 
-/// One pair's term of [`concentration_gradient`], given its kernel gradient `grad`.
+/// One pair's term of [`concentration_gradient`] (`W_ij` from [`SphContext::w_of`]).
 #[inline(always)]
 fn concentration_term<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
-    x_ij: D::Vector,
-    j: usize,
-    grad: D::Vector,
+    p: &Pair<D::Vector>,
     w_dp: f64,
 ) -> D::Vector {
     const R: f64 = 0.2;
-    let ratio = if w_dp > 0.0 {
-        ctx.kernel.w(x_ij.length()) / w_dp
-    } else {
-        0.0
-    };
+    let ratio = if w_dp > 0.0 { ctx.w_of(p) / w_dp } else { 0.0 };
     let r2 = ratio * ratio;
-    grad * (ctx.volumes[j] * (1.0 + R * r2 * r2))
+    p.grad_w * (ctx.volumes[p.j] * (1.0 + R * r2 * r2))
 }
 
 /// What a shifting step needs in one pass over the pairs, each pair's kernel gradient
@@ -79,7 +73,7 @@ pub fn shifting_gradients<D: Dim, K: Kernel<D>>(
             ctx.for_each_pair(i, |p| {
                 m += D::Matrix::outer(u[p.j] - ui, p.grad_w * ctx.volumes[p.j]);
                 if p.j != i {
-                    c += concentration_term(ctx, p.x_ij, p.j, p.grad_w, w_dp);
+                    c += concentration_term(ctx, &p, w_dp);
                 }
             });
             *gc = c;

@@ -618,8 +618,8 @@ sph_core::dim_tests! {
         }
     }
 
-    /// Every operator gives the same bits with the step's shared kernel-gradient factors as
-    /// with its own kernel evaluations (the engine attaches the factors; the operators' other
+    /// Every operator gives the same bits with the step's shared kernel-gradient factors (and
+    /// kernel values) as with its own kernel evaluations (the engine attaches the factors; the operators' other
     /// tests run without them).
     fn operators_give_the_same_bits_with_shared_grad_factors<D>() {
         for kind in [KernelKind::WendlandC2, KernelKind::QuinticSpline] {
@@ -654,10 +654,16 @@ sph_core::dim_tests! {
                 free_surface_scan(c, Some(&l), &mut surface);
                 (l, grad, div, lap, hess, visc, gc, gu, div_r, surface)
             };
+            let (mut factors2, mut values) = (Vec::new(), Vec::new());
+            grad_factors_and_values(&ctx, &mut factors2, &mut values);
+            assert!(factors2 == factors);
             let own = run(&ctx);
             let shared = run(&ctx.with_grad_factors(&factors));
+            let with_values = run(&ctx.with_grad_factors(&factors).with_kernel_values(&values));
             assert!(own.1.iter().any(|g| g.length() > 0.0));
+            assert!(own.6.iter().any(|g| g.length() > 0.0), "a jittered lattice has ∇C ≠ 0");
             assert!(own == shared, "{kind:?}: an operator differs with shared factors");
+            assert!(own == with_values, "{kind:?}: an operator differs with shared kernel values");
         }
     }
 }

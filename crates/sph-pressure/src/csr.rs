@@ -1,5 +1,5 @@
 use rayon::prelude::*;
-pub(crate) use sph_neighbors::for_each_row_mut;
+pub(crate) use sph_neighbors::{for_each_row_mut, for_each_row_mut2};
 
 /// A square sparse matrix in compressed sparse row form whose pattern is borrowed from a
 /// neighbour list (row offsets and sorted column indices) and whose values it owns.
@@ -52,43 +52,6 @@ fn row_dot(values: &[f64], cols: &[u32], x: &[f64]) -> f64 {
         s[0] += v * x[c as usize];
     }
     (s[0] + s[1]) + (s[2] + s[3])
-}
-
-/// [`for_each_row_mut`] over two arrays of the same pattern: `f(row, a_row, b_row)`.
-pub(crate) fn for_each_row_mut2<T: Send, U: Send, F>(
-    offsets: &[usize],
-    a: &mut [T],
-    b: &mut [U],
-    f: &F,
-) where
-    F: Fn(usize, &mut [T], &mut [U]) + Sync,
-{
-    fn rec<T: Send, U: Send, F: Fn(usize, &mut [T], &mut [U]) + Sync>(
-        rows: std::ops::Range<usize>,
-        offsets: &[usize],
-        a: &mut [T],
-        b: &mut [U],
-        f: &F,
-    ) {
-        if rows.len() <= ROW_CHUNK {
-            let base = offsets[rows.start];
-            for i in rows {
-                let (s, e) = (offsets[i] - base, offsets[i + 1] - base);
-                f(i, &mut a[s..e], &mut b[s..e]);
-            }
-            return;
-        }
-        let mid = rows.start + rows.len() / 2;
-        let split = offsets[mid] - offsets[rows.start];
-        let (alo, ahi) = a.split_at_mut(split);
-        let (blo, bhi) = b.split_at_mut(split);
-        rayon::join(
-            || rec(rows.start..mid, offsets, alo, blo, f),
-            || rec(mid..rows.end, offsets, ahi, bhi, f),
-        );
-    }
-    let n = offsets.len() - 1;
-    rec(0..n, offsets, a, b, f);
 }
 
 #[cfg(test)]
