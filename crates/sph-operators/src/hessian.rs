@@ -65,17 +65,30 @@ pub fn hessian_stencil_eq25_contracted<D: Dim, K: Kernel<D>>(
     m: &D::Matrix,
     mut emit: impl FnMut(usize, f64),
 ) {
-    let eta2 = laplacian_regulariser(ctx.kernel.h());
     let coefficient = (D::DIM + 2) as f64;
     let trace = m.trace();
+    eq25_pairs(ctx, i, |k, x_ij, r2, c| {
+        emit(k, c * (coefficient * x_ij.dot(*m * x_ij) / r2 - trace));
+    });
+}
+
+/// Calls `f(k, x_ij, r_ij², c_ij)` with `c_ij = −V_j F_ij` for every neighbour `j` (row
+/// position `k`) of particle `i` at a non-zero distance: the scalar both Eq. (25) stencils
+/// scale.
+#[inline(always)]
+fn eq25_pairs<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    i: usize,
+    mut f: impl FnMut(usize, D::Vector, f64, f64),
+) {
+    let eta2 = laplacian_regulariser(ctx.kernel.h());
     ctx.for_each_pair(i, |p| {
-        let x_ij = p.x_ij;
-        let r2 = x_ij.length_squared();
+        let r2 = p.x_ij.length_squared();
         if r2 == 0.0 {
             return;
         }
-        let c = -ctx.volumes[p.j] * x_ij.dot(p.grad_w) / (r2 + eta2);
-        emit(p.k, c * (coefficient * x_ij.dot(*m * x_ij) / r2 - trace));
+        let c = -ctx.volumes[p.j] * p.x_ij.dot(p.grad_w) / (r2 + eta2);
+        f(p.k, p.x_ij, r2, c);
     });
 }
 
@@ -86,16 +99,9 @@ pub(crate) fn eq25_stencil<D: Dim, K: Kernel<D>>(
     coefficient: f64,
     emit: &mut impl FnMut(usize, D::Matrix),
 ) {
-    let eta2 = laplacian_regulariser(ctx.kernel.h());
-    ctx.for_each_pair(i, |p| {
-        let x_ij = p.x_ij;
-        let r2 = x_ij.length_squared();
-        if r2 == 0.0 {
-            return;
-        }
-        let c = -ctx.volumes[p.j] * x_ij.dot(p.grad_w) / (r2 + eta2);
+    eq25_pairs(ctx, i, |k, x_ij, r2, c| {
         emit(
-            p.k,
+            k,
             D::Matrix::outer(x_ij, x_ij * (c * coefficient / r2)) - D::Matrix::IDENTITY * c,
         );
     });
