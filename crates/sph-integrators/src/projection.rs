@@ -62,17 +62,15 @@ pub(crate) fn prepare<D: Dim>(
         .build(x, e.kernel.support_radius())
         .map_err(|source| StepError::Neighbors { step, t, source })?;
     e.search.query(x, &mut e.neighbors);
-    {
-        sph_kernels::with_kernel!(&e.kernel, k => {
-            let ctx = SphContext::new(x, &e.volumes, &e.neighbors, k).with_periodic(e.periodic);
-            if e.config.effects.shifting.is_some() {
-                grad_factors_and_values(&ctx, &mut e.grad_factors, &mut e.kernel_values);
-            } else {
-                grad_factors(&ctx, &mut e.grad_factors);
-                e.kernel_values.clear();
-            }
-        });
-    }
+    sph_kernels::with_kernel!(&e.kernel, k => {
+        let ctx = SphContext::new(x, &e.volumes, &e.neighbors, k).with_periodic(e.periodic);
+        if e.config.effects.shifting.is_some() {
+            grad_factors_and_values(&ctx, &mut e.grad_factors, &mut e.kernel_values);
+        } else {
+            grad_factors(&ctx, &mut e.grad_factors);
+            e.kernel_values.clear();
+        }
+    });
     phases.add(Phase::Neighbors, clock);
     let clock = Instant::now();
     for ((v, m), rho) in e.volumes.iter_mut().zip(masses).zip(densities) {

@@ -35,7 +35,7 @@ pub(crate) struct Engine<D: Dim> {
     pub(crate) search: AnySearch<D>,
     pub(crate) neighbors: NeighborList,
     /// Kernel-gradient factors `(dW/dr)/r` of every entry of `neighbors`, computed with the
-    /// lists and read by every pass of the step ([`Engine::context`]).
+    /// lists and read by every pass of the step (through `engine_context!`).
     pub(crate) grad_factors: Vec<f64>,
     /// Kernel values `W_ij` of every entry of `neighbors`, computed with the factors when the
     /// scene declares shifting (whose concentration term reads them); empty otherwise.

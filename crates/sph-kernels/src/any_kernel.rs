@@ -63,32 +63,22 @@ pub enum AnyKernel<D: Dim> {
     CubicSpline(CubicSpline<D>),
 }
 
-macro_rules! dispatch {
-    ($self:ident, $k:ident => $e:expr) => {
-        match $self {
-            AnyKernel::QuinticSpline($k) => $e,
-            AnyKernel::WendlandC2($k) => $e,
-            AnyKernel::CubicSpline($k) => $e,
-        }
-    };
-}
-
 impl<D: Dim> Kernel<D> for AnyKernel<D> {
     #[inline(always)]
     fn h(&self) -> f64 {
-        dispatch!(self, k => k.h())
+        crate::with_kernel!(self, k => k.h())
     }
     #[inline(always)]
     fn support_radius(&self) -> f64 {
-        dispatch!(self, k => k.support_radius())
+        crate::with_kernel!(self, k => k.support_radius())
     }
     #[inline(always)]
     fn w(&self, r: f64) -> f64 {
-        dispatch!(self, k => k.w(r))
+        crate::with_kernel!(self, k => k.w(r))
     }
     #[inline(always)]
     fn dw_dr(&self, r: f64) -> f64 {
-        dispatch!(self, k => k.dw_dr(r))
+        crate::with_kernel!(self, k => k.dw_dr(r))
     }
 }
 

@@ -77,13 +77,18 @@ impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
     /// the kernel in every pass. Panics if `factors` does not have one entry per neighbour-list
     /// entry (a programming error).
     pub fn with_grad_factors(mut self, factors: &'a [f64]) -> Self {
-        assert_eq!(
-            factors.len(),
-            self.neighbors.nnz(),
-            "one kernel-gradient factor per neighbour-list entry"
-        );
-        self.grad_factors = Some(factors);
+        self.grad_factors = Some(self.per_entry(factors, "kernel-gradient factor"));
         self
+    }
+
+    /// `values`, checked to hold one `what` per neighbour-list entry (a programming error if not).
+    fn per_entry(&self, values: &'a [f64], what: &str) -> &'a [f64] {
+        assert_eq!(
+            values.len(),
+            self.neighbors.nnz(),
+            "one {what} per neighbour-list entry"
+        );
+        values
     }
 
     /// The same context on a periodic domain (`None`: not periodic).
@@ -157,12 +162,7 @@ impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
     /// on the same positions, neighbour lists, kernel and periodic axes) in [`SphContext::w_of`].
     /// Panics if `values` does not have one entry per neighbour-list entry.
     pub fn with_kernel_values(mut self, values: &'a [f64]) -> Self {
-        assert_eq!(
-            values.len(),
-            self.neighbors.nnz(),
-            "one kernel value per neighbour-list entry"
-        );
-        self.kernel_values = Some(values);
+        self.kernel_values = Some(self.per_entry(values, "kernel value"));
         self
     }
 

@@ -49,8 +49,9 @@ pub fn hessian_stencil_eq25<D: Dim, K: Kernel<D>>(
 }
 
 /// The Eq. (25) stencil contracted with a matrix `M` (the DG pressure equation's `cof(A_i)`,
-/// paper Eq. 23): calls `emit(k, M : C_ij)` for the `k`-th neighbour `j` of particle `i`, with
-/// [`hessian_stencil_eq25`]'s `C_ij`, computed without forming it:
+/// paper Eq. 22, written out in Eqs. 23–24): calls `emit(k, M : C_ij)` for the `k`-th
+/// neighbour `j` of particle `i`, with [`hessian_stencil_eq25`]'s `C_ij`, computed without
+/// forming it:
 ///
 /// ```text
 /// M : C_ij = −V_j F_ij ((d + 2) x_ijᵀ M x_ij / r_ij² − tr M)
