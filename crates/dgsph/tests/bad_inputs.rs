@@ -1180,7 +1180,20 @@ fn checkpoints_with_impossible_values_are_refused() {
                 c.masses.pop();
                 c.densities.pop();
                 c.pressures.pop();
+                c.ids.pop();
             }),
+        ),
+        (
+            "wall particles keep their slots",
+            Box::new(|c: &mut Checkpoint| {
+                // A permutation that moves a wall particle into the fluid's slots.
+                let last = c.ids.len() - 1;
+                c.ids.swap(0, last);
+            }),
+        ),
+        (
+            "not a permutation",
+            Box::new(|c: &mut Checkpoint| c.ids[1] = c.ids[0]),
         ),
         (
             "truncated",

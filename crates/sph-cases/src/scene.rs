@@ -243,6 +243,9 @@ pub struct Scene {
     /// Hessian of the DG equation. Default `eq25`.
     #[serde(default)]
     pub dg_hessian: DgHessianChoice,
+    /// Renumber the fluid particles in cell order every this many steps (`0`: never). Default
+    /// [`DEFAULT_REORDER_EVERY`]. See [`SimConfig::reorder_every`].
+    pub reorder_every: Option<usize>,
     /// Lid-driven cavity parameters (required by, and only allowed for, `lid_driven_cavity`).
     pub cavity: Option<CavitySpec>,
     /// How the walls' no-penetration condition enters the projection (block-posed walls;
@@ -304,6 +307,11 @@ impl Estimate {
     }
 }
 
+/// Steps between renumberings of the fluid particles in cell order when a scene does not say
+/// (`reorder_every`). The order decays slowly (a cavity's neighbour search slows by a quarter over
+/// thousands of steps); each renumbering costs about one neighbour search and a fresh AMG set-up.
+pub const DEFAULT_REORDER_EVERY: usize = 20;
+
 /// Fewest fluid particles a scene's geometry may hold (estimated before building).
 const MIN_FLUID_ESTIMATE: f64 = 16.0;
 
@@ -340,6 +348,7 @@ impl Scene {
             pressure: PressureSpec::default(),
             solver: SolverKind::default(),
             solver_tolerance: None,
+            reorder_every: None,
             solver_warm_start: true,
             dg_hessian: DgHessianChoice::default(),
             cavity: None,
@@ -414,6 +423,7 @@ impl Scene {
             config.solve.rel_tolerance = tol;
         }
         config.warm_start = self.solver_warm_start;
+        config.reorder_every = self.reorder_every.unwrap_or(DEFAULT_REORDER_EVERY);
         config.dg_hessian = self.dg_hessian.into();
         config.effects = Effects {
             viscosity: self.effects.viscosity,
@@ -562,7 +572,7 @@ impl Scene {
     /// Whether `self` may continue a run written under `written` (its checkpoint's scene): the
     /// same physics, with only these keys free to differ — when it ends (`t_end`), which schemes
     /// the command runs, how the (same) linear systems are solved (`solver`,
-    /// `solver_tolerance`, `solver_warm_start`) and what is recorded and checked (`output`, `check`, the cavity's
+    /// `solver_tolerance`, `solver_warm_start`, `reorder_every`) and what is recorded and checked (`output`, `check`, the cavity's
     /// `snapshots`, `sample_every`, `ghia_tolerance`, `check_ghia`, the `quick` table). Returns
     /// the keys that differ otherwise.
     pub fn resume_differences(&self, written: &Scene) -> Vec<String> {
@@ -573,6 +583,7 @@ impl Scene {
             s.solver = SolverKind::default();
             s.solver_tolerance = None;
             s.solver_warm_start = true;
+            s.reorder_every = None;
             s.output = OutputSpec::default();
             s.check.clear();
             s.quick = None;

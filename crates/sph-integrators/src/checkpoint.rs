@@ -1,6 +1,7 @@
 //! Checkpoints: the state a run needs to continue exactly where it stopped.
 //!
-//! A [`Simulation`]'s evolving state is its particles, time and step count; everything else
+//! A [`Simulation`]'s evolving state is its particles (in their current numbering, with each
+//! slot's initial index), time and step count; everything else
 //! (neighbour lists, matrices, the gauge) is rebuilt every step from them, and the pressure warm
 //! start is the particles' pressure. So restoring a [`Checkpoint`] into a simulation built from
 //! the same scene continues the run bit for bit.
@@ -13,7 +14,8 @@
 //! Layout (little-endian): `b"DGSPHCKP"`, format version `u32`, dimension `u32`, step `u64`,
 //! `t` `f64`, particle count `n` `u64`, metadata length `u64` and its UTF-8 bytes, then positions
 //! and velocities (`3n` `f64` each, `z = 0` in 2D), masses, densities and pressures (`n` each),
-//! then the checksum `u64`.
+//! the particles' initial indices (`n` `u32`; format version 2 — version 1 images, which have
+//! none, are read with the identity numbering), then the checksum `u64`.
 
 use crate::simulation::Simulation;
 use sph_core::{CoreError, Dim, ParticleSet, VectorOps};
@@ -38,6 +40,8 @@ pub struct Checkpoint {
     pub densities: Vec<f64>,
     /// Pressures (the next solve's warm start).
     pub pressures: Vec<f64>,
+    /// Each slot's index in the initial state ([`Simulation::ids`]): a permutation of `0..n`.
+    pub ids: Vec<u32>,
     /// The caller's metadata (not interpreted here).
     pub meta: String,
 }
@@ -80,7 +84,7 @@ pub enum RestoreError {
 }
 
 const MAGIC: &[u8; 8] = b"DGSPHCKP";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// FNV-1a, 64 bit (Fowler–Noll–Vo): every single-byte change changes the hash.
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -118,15 +122,27 @@ impl Reader<'_> {
             self.take(8, what)?.try_into().expect("8 bytes"),
         ))
     }
-    fn f64s(&mut self, n: usize, what: &str) -> Result<Vec<f64>, RestoreError> {
+    /// `n` little-endian values of `W` bytes each.
+    fn array<const W: usize, T>(
+        &mut self,
+        n: usize,
+        what: &str,
+        from: fn([u8; W]) -> T,
+    ) -> Result<Vec<T>, RestoreError> {
         let len = n
-            .checked_mul(8)
+            .checked_mul(W)
             .ok_or_else(|| RestoreError::Format(format!("{what}: count overflows")))?;
         Ok(self
             .take(len, what)?
-            .chunks_exact(8)
-            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .chunks_exact(W)
+            .map(|c| from(c.try_into().expect("W bytes")))
             .collect())
+    }
+    fn f64s(&mut self, n: usize, what: &str) -> Result<Vec<f64>, RestoreError> {
+        self.array(n, what, f64::from_le_bytes)
+    }
+    fn u32s(&mut self, n: usize, what: &str) -> Result<Vec<u32>, RestoreError> {
+        self.array(n, what, u32::from_le_bytes)
     }
 }
 
@@ -134,7 +150,7 @@ impl Checkpoint {
     /// The checkpoint as a self-checking binary image (see the module docs).
     pub fn encode(&self) -> Vec<u8> {
         let n = self.masses.len();
-        let mut out = Vec::with_capacity(64 + self.meta.len() + n * 9 * 8 + 8);
+        let mut out = Vec::with_capacity(64 + self.meta.len() + n * (9 * 8 + 4) + 8);
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&VERSION.to_le_bytes());
         out.extend_from_slice(&(self.dim as u32).to_le_bytes());
@@ -154,6 +170,9 @@ impl Checkpoint {
             for c in v.iter() {
                 out.extend_from_slice(&c.to_le_bytes());
             }
+        }
+        for id in &self.ids {
+            out.extend_from_slice(&id.to_le_bytes());
         }
         let sum = fnv1a(&out);
         out.extend_from_slice(&sum.to_le_bytes());
@@ -177,7 +196,7 @@ impl Checkpoint {
             at: MAGIC.len(),
         };
         let version = r.u32("version")?;
-        if version != VERSION {
+        if version != VERSION && version != 1 {
             return Err(RestoreError::Format(format!(
                 "format version {version}, this build reads {VERSION}"
             )));
@@ -209,9 +228,18 @@ impl Checkpoint {
         let masses = r.f64s(n, "masses")?;
         let densities = r.f64s(n, "densities")?;
         let pressures = r.f64s(n, "pressures")?;
+        let ids = if version == 1 {
+            (0..n)
+                .map(|i| {
+                    u32::try_from(i).map_err(|_| RestoreError::Format("too many particles".into()))
+                })
+                .collect::<Result<_, _>>()?
+        } else {
+            r.u32s(n, "particle ids")?
+        };
         if r.at != body.len() {
             return Err(RestoreError::Format(format!(
-                "{} bytes after the pressures",
+                "{} bytes after the particle data",
                 body.len() - r.at
             )));
         }
@@ -224,6 +252,7 @@ impl Checkpoint {
             masses,
             densities,
             pressures,
+            ids,
             meta,
         };
         c.validate()?;
@@ -256,6 +285,25 @@ impl Checkpoint {
         if let Some(i) = self.pressures.iter().position(|p| !p.is_finite()) {
             return invalid("pressure", format!("particle {i} is not finite"));
         }
+        let n = self.masses.len();
+        if self.ids.len() != n {
+            return invalid(
+                "particle numbering",
+                format!("{} ids for {n} particles", self.ids.len()),
+            );
+        }
+        let mut seen = vec![false; n];
+        for (slot, &id) in self.ids.iter().enumerate() {
+            match seen.get_mut(id as usize) {
+                Some(s) if !*s => *s = true,
+                _ => {
+                    return invalid(
+                        "particle numbering",
+                        format!("slot {slot} holds id {id}: not a permutation of 0..{n}"),
+                    );
+                }
+            }
+        }
         if self.dim == 2
             && let Some(i) = self
                 .positions
@@ -282,13 +330,14 @@ impl<D: Dim> Simulation<D> {
             masses: p.masses.clone(),
             densities: p.densities.clone(),
             pressures: p.pressures.clone(),
+            ids: self.order.ids.clone(),
             meta: meta.to_string(),
         }
     }
 
     /// Continues from `checkpoint`, which must come from a simulation of the same scene (same
-    /// particle count and dimension; fluid and wall particles in the same order). On error the
-    /// simulation is unchanged.
+    /// particle count and dimension; the fluid particles first, the wall particles in their
+    /// initial slots). On error the simulation is unchanged.
     pub fn restore(&mut self, checkpoint: &Checkpoint) -> Result<(), RestoreError> {
         if checkpoint.dim != D::DIM {
             return Err(RestoreError::Dimension {
@@ -317,7 +366,22 @@ impl<D: Dim> Simulation<D> {
             }
             .into());
         }
+        let nf = self.engine.fluid.min(n);
+        if let Some(slot) = (nf..n).find(|&k| checkpoint.ids[k] as usize != k) {
+            return Err(RestoreError::Invalid {
+                what: "particle numbering",
+                detail: format!(
+                    "slot {slot} of the walls holds particle {} (wall particles keep their slots)",
+                    checkpoint.ids[slot]
+                ),
+            });
+        }
         self.particles = particles;
+        self.order.ids.clone_from(&checkpoint.ids);
+        self.order.slots.resize(n, 0);
+        for (slot, &id) in self.order.ids.iter().enumerate() {
+            self.order.slots[id as usize] = slot as u32;
+        }
         self.t = checkpoint.t;
         self.step = checkpoint.step;
         self.invalidate_solver_setup();
@@ -339,6 +403,7 @@ mod tests {
             masses: vec![0.0025, 0.0025],
             densities: vec![1.0, 1.0 + f64::EPSILON],
             pressures: vec![-3.3e3, 7.0 / 9.0],
+            ids: vec![1, 0],
             meta: "{\"scene\": \"é\"}".into(),
         }
     }
@@ -353,6 +418,29 @@ mod tests {
         assert_eq!(bits(&back.positions), bits(&c.positions));
         assert_eq!(bits(&back.velocities), bits(&c.velocities));
         assert_eq!(back.t.to_bits(), c.t.to_bits());
+    }
+
+    /// A version-1 image (written before particles were renumbered: no ids) is read with the
+    /// identity numbering.
+    #[test]
+    fn version_1_images_read_with_the_identity_numbering() {
+        let mut c = sample();
+        let v2 = c.encode();
+        let n = c.masses.len();
+        let mut v1 = v2[..v2.len() - 8 - 4 * n].to_vec();
+        v1[8..12].copy_from_slice(&1u32.to_le_bytes());
+        let sum = fnv1a(&v1);
+        v1.extend_from_slice(&sum.to_le_bytes());
+        let back = Checkpoint::decode(&v1).unwrap();
+        c.ids = vec![0, 1];
+        assert_eq!(back, c);
+        // The same bytes announced as version 2 lack the ids.
+        let mut bad = v1[..v1.len() - 8].to_vec();
+        bad[8..12].copy_from_slice(&2u32.to_le_bytes());
+        let sum = fnv1a(&bad);
+        bad.extend_from_slice(&sum.to_le_bytes());
+        let e = Checkpoint::decode(&bad).unwrap_err().to_string();
+        assert!(e.contains("particle ids"), "{e}");
     }
 
     #[test]
@@ -389,6 +477,14 @@ mod tests {
             (
                 "2D state",
                 Box::new(|c: &mut Checkpoint| c.positions[0][2] = 1.0),
+            ),
+            (
+                "particle numbering",
+                Box::new(|c: &mut Checkpoint| c.ids[1] = 1),
+            ),
+            (
+                "particle numbering",
+                Box::new(|c: &mut Checkpoint| c.ids[0] = 7),
             ),
         ] {
             let mut c = sample();
@@ -463,6 +559,7 @@ mod tests {
                     assert!(c.t.is_finite() && c.t >= 0.0);
                     assert!(c.positions.len() == n && c.velocities.len() == n);
                     assert!(c.densities.len() == n && c.pressures.len() == n);
+                    assert_eq!(c.ids.len(), n);
                     assert!(
                         c.masses
                             .iter()

@@ -91,3 +91,21 @@ pub enum StepError {
         dt: f64,
     },
 }
+
+impl StepError {
+    /// The error with a particle slot it names replaced by `ids[slot]`, the particle's index in
+    /// the initial state (see [`Simulation::ids`](crate::Simulation::ids)).
+    pub(crate) fn with_particle_ids(mut self, ids: &[u32]) -> Self {
+        match &mut self {
+            StepError::NonFinite { particle, .. }
+            | StepError::BlowUp { particle, .. }
+            | StepError::Escaped { particle, .. } => {
+                if let Some(&id) = ids.get(*particle) {
+                    *particle = id as usize;
+                }
+            }
+            _ => {}
+        }
+        self
+    }
+}

@@ -216,11 +216,33 @@ fn projection_step<D: Dim>(
 ) -> Result<StepReport, StepError> {
     let t0 = Instant::now();
     let mut phases = PhaseTimes::default();
-    let (step, t) = (sim.step, sim.t);
+    let step = sim.step;
     if !(dt.is_finite() && dt > 0.0) {
         return Err(StepError::InvalidTimeStep { step, dt });
     }
     sim.ensure_buffers();
+    let every = sim.engine.config.reorder_every;
+    if every > 0 && step > 0 && step.is_multiple_of(every) {
+        // Counted with the neighbour search, whose order it restores.
+        let clock = Instant::now();
+        sim.reorder_by_cell();
+        phases.add(Phase::Neighbors, clock);
+    }
+    projection_passes(sim, dt, equation, rule, t0, phases)
+        .map_err(|e| e.with_particle_ids(&sim.order.ids))
+}
+
+/// [`projection_step`] after the renumbering: the step's passes on the particles as they are
+/// numbered now (errors name slots; the caller maps them to initial indices).
+fn projection_passes<D: Dim>(
+    sim: &mut Simulation<D>,
+    dt: f64,
+    equation: Equation,
+    rule: PositionRule,
+    t0: Instant,
+    mut phases: PhaseTimes,
+) -> Result<StepReport, StepError> {
+    let (step, t) = (sim.step, sim.t);
     let viscous = sim.engine.config.effects.viscosity.is_some();
     let det_f_wanted = sim.engine.config.diagnostics.det_f;
     let p = &sim.particles;

@@ -2,7 +2,7 @@ use crate::config::SimConfig;
 use crate::walls::{WallError, Walls};
 use sph_core::{CoreError, Dim, MatrixOps, ParticleSet, Periodic, VectorOps};
 use sph_kernels::{AnyKernel, Kernel};
-use sph_neighbors::{AnySearch, NeighborList, NeighborSearch};
+use sph_neighbors::{AnySearch, CellGrid, NeighborList, NeighborSearch};
 use sph_pressure::{AnySolver, CsrMatrix, LinearSolver, MeanZeroGauge};
 
 /// A running simulation: the particles plus everything the schemes share (kernel, neighbour
@@ -17,6 +17,52 @@ pub struct Simulation<D: Dim> {
     pub step: usize,
     pub(crate) engine: Engine<D>,
     pub(crate) buf: Buffers<D>,
+    pub(crate) order: Order<D>,
+}
+
+/// The particles' numbering under [`SimConfig::reorder_every`]: which particle of the initial
+/// state each slot of [`Simulation::particles`] holds, the inverse map, and the renumbering's
+/// scratch (kept, so renumbering does not allocate once sizes are stable).
+pub(crate) struct Order<D: Dim> {
+    /// `ids[slot]`: the particle's index in the initial state.
+    pub(crate) ids: Vec<u32>,
+    /// `slots[id]`: the slot particle `id` is in now.
+    pub(crate) slots: Vec<u32>,
+    grid: CellGrid<D>,
+    perm: Vec<u32>,
+    vectors: Vec<D::Vector>,
+    scalars: Vec<f64>,
+    indices: Vec<u32>,
+}
+
+impl<D: Dim> Order<D> {
+    fn new() -> Self {
+        Self {
+            ids: Vec::new(),
+            slots: Vec::new(),
+            grid: CellGrid::new(),
+            perm: Vec::new(),
+            vectors: Vec::new(),
+            scalars: Vec::new(),
+            indices: Vec::new(),
+        }
+    }
+
+    /// The identity numbering of `n` particles, unless the numbering already has that size.
+    fn ensure(&mut self, n: usize) {
+        if self.ids.len() != n || self.slots.len() != n {
+            self.ids.clear();
+            self.ids.extend(0..n as u32);
+            self.slots.clone_from(&self.ids);
+        }
+    }
+}
+
+/// `v[k] = v_old[perm[k]]` for `k < perm.len()` (the rest of `v` unchanged), through `scratch`.
+fn gather<T: Copy>(v: &mut [T], perm: &[u32], scratch: &mut Vec<T>) {
+    scratch.clear();
+    scratch.extend(perm.iter().map(|&i| v[i as usize]));
+    v[..perm.len()].copy_from_slice(scratch);
 }
 
 /// Kernel, search, solver and per-step scratch of the projection.
@@ -204,12 +250,15 @@ impl<D: Dim> Simulation<D> {
             grad_c: Vec::new(),
             grad_u: Vec::new(),
         };
+        let mut order = Order::new();
+        order.ensure(particles.len());
         Ok(Self {
             particles,
             t: 0.0,
             step: 0,
             engine,
             buf,
+            order,
         })
     }
 
@@ -260,6 +309,57 @@ impl<D: Dim> Simulation<D> {
     /// constant null space.
     pub fn gauge_multiplier(&self) -> f64 {
         self.engine.gauge.last_multiplier
+    }
+
+    /// For each slot of [`Simulation::particles`], the index the particle had in the initial
+    /// state. The identity unless [`SimConfig::reorder_every`] renumbers the fluid particles
+    /// (wall particles keep their slots); [`Frame`](crate::Frame) presents the particles in
+    /// this initial numbering.
+    pub fn ids(&self) -> &[u32] {
+        &self.order.ids
+    }
+
+    /// The slot of [`Simulation::particles`] that holds the particle with initial index `id`
+    /// (`id` itself if the particle set was replaced since the last step).
+    pub fn slot(&self, id: usize) -> usize {
+        match self.order.slots.get(id) {
+            Some(&s) if self.order.slots.len() == self.particles.len() => s as usize,
+            _ => id,
+        }
+    }
+
+    /// Renumbers the fluid particles in the neighbour grid's cell order (see
+    /// [`SimConfig::reorder_every`]): their positions, velocities, masses, densities, pressures
+    /// and ids are permuted alike, and the solver's kept set-up (whose aggregates are numbered
+    /// by slot) is dropped. Nothing happens if the particles are already in that order.
+    pub(crate) fn reorder_by_cell(&mut self) {
+        let n = self.particles.len();
+        self.order.ensure(n);
+        let nf = self.engine.fluid.min(n);
+        let o = &mut self.order;
+        let radius = self.engine.kernel.support_radius();
+        // The grid over all particles, as the step's search builds it (same origin and cells),
+        // so each of its runs of cells holds consecutive fluid slots and rows come out sorted.
+        if nf < 2 || o.grid.build(&self.particles.positions, radius).is_err() {
+            return;
+        }
+        o.perm.clear();
+        o.perm
+            .extend(o.grid.cell_order().iter().filter(|&&i| (i as usize) < nf));
+        if o.perm.iter().enumerate().all(|(k, &i)| k == i as usize) {
+            return;
+        }
+        let p = &mut self.particles;
+        gather(&mut p.positions, &o.perm, &mut o.vectors);
+        gather(&mut p.velocities, &o.perm, &mut o.vectors);
+        gather(&mut p.masses, &o.perm, &mut o.scalars);
+        gather(&mut p.densities, &o.perm, &mut o.scalars);
+        gather(&mut p.pressures, &o.perm, &mut o.scalars);
+        gather(&mut o.ids, &o.perm, &mut o.indices);
+        for (slot, &id) in o.ids.iter().enumerate() {
+            o.slots[id as usize] = slot as u32;
+        }
+        self.engine.solver.invalidate_setup();
     }
 
     /// Forgets the set-up work the linear solver keeps between steps (the AMG hierarchy), so
@@ -318,6 +418,7 @@ impl<D: Dim> Simulation<D> {
     /// Resizes every buffer to the particle count.
     pub(crate) fn ensure_buffers(&mut self) {
         let n = self.particles.len();
+        self.order.ensure(n);
         let e = &mut self.engine;
         e.volumes.resize(n, 0.0);
         e.corrections.resize(n, D::Matrix::IDENTITY);

@@ -18,7 +18,12 @@ pub trait Kernel<D: Dim>: Send + Sync + fmt::Debug + Clone {
     /// computed once per pair and reused gives the same bits as a fresh `grad_w`.
     #[inline(always)]
     fn grad_factor(&self, x_ij: D::Vector) -> f64 {
-        let r = x_ij.length();
+        self.grad_factor_at(x_ij.length())
+    }
+    /// [`grad_factor`](Kernel::grad_factor) at the distance `r = |x_ij|`, for a caller that
+    /// also needs `W(r)` from the same square root.
+    #[inline(always)]
+    fn grad_factor_at(&self, r: f64) -> f64 {
         if r > 0.0 { self.dw_dr(r) / r } else { 0.0 }
     }
     /// `∇_i W(x_ij) = dW/dr · x_ij / r` with `x_ij = x_i − x_j`; zero for `r = 0`.

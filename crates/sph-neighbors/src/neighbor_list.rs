@@ -104,29 +104,9 @@ pub fn for_each_row_mut<T: Send, F>(offsets: &[usize], values: &mut [T], f: &F)
 where
     F: Fn(usize, &mut [T]) + Sync,
 {
-    fn rec<T: Send, F: Fn(usize, &mut [T]) + Sync>(
-        rows: std::ops::Range<usize>,
-        offsets: &[usize],
-        values: &mut [T],
-        f: &F,
-    ) {
-        if rows.len() <= ROW_CHUNK {
-            let base = offsets[rows.start];
-            for i in rows {
-                let (a, b) = (offsets[i] - base, offsets[i + 1] - base);
-                f(i, &mut values[a..b]);
-            }
-            return;
-        }
-        let mid = rows.start + rows.len() / 2;
-        let (lo, hi) = values.split_at_mut(offsets[mid] - offsets[rows.start]);
-        rayon::join(
-            || rec(rows.start..mid, offsets, lo, f),
-            || rec(mid..rows.end, offsets, hi, f),
-        );
-    }
-    let n = offsets.len() - 1;
-    rec(0..n, offsets, values, f);
+    // The two-array walk with a zero-sized second array (a `Vec<()>` does not allocate).
+    let mut none = vec![(); values.len()];
+    for_each_row_mut2(offsets, values, &mut none, &|i, row, _| f(i, row));
 }
 
 /// [`for_each_row_mut`] over two arrays of the same pattern: `f(row, a_row, b_row)`.

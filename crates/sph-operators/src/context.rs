@@ -232,9 +232,9 @@ pub fn grad_factors_and_values<D: Dim, K: Kernel<D>>(
     sph_neighbors::for_each_row_mut2(ctx.neighbors.offsets(), factors, values, &|i, fr, vr| {
         let xi = ctx.positions[i];
         for ((s, w), &j) in fr.iter_mut().zip(vr.iter_mut()).zip(ctx.neighbors.row(i)) {
-            let x_ij = ctx.pair(xi, j as usize);
-            *s = ctx.kernel.grad_factor(x_ij);
-            *w = ctx.kernel.w(x_ij.length());
+            let r = ctx.pair(xi, j as usize).length();
+            *s = ctx.kernel.grad_factor_at(r);
+            *w = ctx.kernel.w(r);
         }
     });
 }

@@ -5,6 +5,7 @@ mod drop_runs;
 mod effects;
 mod flows;
 mod measures;
+mod multigrid;
 mod section3;
 mod step_one;
 mod support;
