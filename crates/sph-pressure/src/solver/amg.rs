@@ -354,18 +354,6 @@ impl Amg {
                 vals[diag] += lumped;
             },
         );
-        // Singular: every row with off-diagonal entries sums to zero (round-off aside); rows
-        // without (Dirichlet, dense) have no aggregate and never reach the coarse levels.
-        {
-            let l0 = &self.levels[0];
-            self.singular = (0..n).into_par_iter().with_min_len(1024).all(|i| {
-                let row = l0.a.offsets[i]..l0.a.offsets[i + 1];
-                let (sum, abs) = l0.a.values[row.clone()]
-                    .iter()
-                    .fold((0.0, 0.0), |(s, a), v| (s + v, a + v.abs()));
-                row.len() <= 1 || sum.abs() <= 1e-8 * abs
-            });
-        }
         // Reuse: keep the coarse levels (prolongations, Galerkin matrices, coarsest LU) of the
         // last full setup when they were built for the same unknowns and dense rows.
         if reuse
@@ -375,6 +363,19 @@ impl Amg {
         {
             Self::prepare_level(&mut self.levels[0]);
             return false;
+        }
+        // Singular: every row with off-diagonal entries sums to zero (round-off aside); rows
+        // without (Dirichlet, dense) have no aggregate and never reach the coarse levels. Only
+        // the coarsest level's factorisation reads it, so a kept hierarchy skips the pass.
+        {
+            let l0 = &self.levels[0];
+            self.singular = (0..n).into_par_iter().with_min_len(1024).all(|i| {
+                let row = l0.a.offsets[i]..l0.a.offsets[i + 1];
+                let (sum, abs) = l0.a.values[row.clone()]
+                    .iter()
+                    .fold((0.0, 0.0), |(s, a), v| (s + v, a + v.abs()));
+                row.len() <= 1 || sum.abs() <= 1e-8 * abs
+            });
         }
         self.built_dense.clone_from(&self.dense_idx);
         let mut depth = 1;
