@@ -220,6 +220,8 @@ pub(crate) struct Amg {
     coarse: DenseLu,
     // Setup scratch.
     agg: Vec<u32>,
+    /// The aggregates after the first pass (what the second pass attaches to).
+    agg_pass1: Vec<u32>,
     /// Dense rows of the fine level (see [`Amg::setup`]): flags, indices, a copy of each
     /// row, and the gauge rows (those with an entry in a dense column).
     dense: Vec<bool>,
@@ -493,7 +495,8 @@ impl Amg {
             nc += 1;
         }
         // Pass 2: attach the rest to the aggregate of their strongest aggregated neighbour.
-        let pass1: Vec<u32> = agg.clone();
+        let pass1 = &mut self.agg_pass1;
+        pass1.clone_from(agg);
         for i in 0..m {
             if agg[i] != NONE {
                 continue;
