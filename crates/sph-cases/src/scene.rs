@@ -571,10 +571,10 @@ impl Scene {
 
     /// Whether `self` may continue a run written under `written` (its checkpoint's scene): the
     /// same physics, with only these keys free to differ — when it ends (`t_end`), which schemes
-    /// the command runs, how the (same) linear systems are solved (`solver`,
-    /// `solver_tolerance`, `solver_warm_start`, `reorder_every`) and what is recorded and checked (`output`, `check`, the cavity's
-    /// `snapshots`, `sample_every`, `ghia_tolerance`, `check_ghia`, the `quick` table). Returns
-    /// the keys that differ otherwise.
+    /// the command runs, how the (same) linear systems are solved and numbered (`solver`,
+    /// `solver_tolerance`, `solver_warm_start`, `reorder_every`) and what is recorded and
+    /// checked (`output`, `check`, the cavity's `snapshots`, `sample_every`, `ghia_tolerance`,
+    /// `check_ghia`, the `quick` table). Returns the keys that differ otherwise.
     pub fn resume_differences(&self, written: &Scene) -> Vec<String> {
         let normalise = |s: &Scene| {
             let mut s = s.clone();

@@ -198,7 +198,7 @@ impl Checkpoint {
         let version = r.u32("version")?;
         if version != VERSION && version != 1 {
             return Err(RestoreError::Format(format!(
-                "format version {version}, this build reads {VERSION}"
+                "format version {version}, this build reads 1 to {VERSION}"
             )));
         }
         let dim = r.u32("dimension")? as usize;
@@ -378,10 +378,7 @@ impl<D: Dim> Simulation<D> {
         }
         self.particles = particles;
         self.order.ids.clone_from(&checkpoint.ids);
-        self.order.slots.resize(n, 0);
-        for (slot, &id) in self.order.ids.iter().enumerate() {
-            self.order.slots[id as usize] = slot as u32;
-        }
+        self.order.index_slots();
         self.t = checkpoint.t;
         self.step = checkpoint.step;
         self.invalidate_solver_setup();

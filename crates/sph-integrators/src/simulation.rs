@@ -48,6 +48,14 @@ impl<D: Dim> Order<D> {
         }
     }
 
+    /// `slots` as the inverse of `ids` (a permutation).
+    pub(crate) fn index_slots(&mut self) {
+        self.slots.resize(self.ids.len(), 0);
+        for (slot, &id) in self.ids.iter().enumerate() {
+            self.slots[id as usize] = slot as u32;
+        }
+    }
+
     /// The identity numbering of `n` particles, unless the numbering already has that size.
     fn ensure(&mut self, n: usize) {
         if self.ids.len() != n || self.slots.len() != n {
@@ -356,9 +364,7 @@ impl<D: Dim> Simulation<D> {
         gather(&mut p.densities, &o.perm, &mut o.scalars);
         gather(&mut p.pressures, &o.perm, &mut o.scalars);
         gather(&mut o.ids, &o.perm, &mut o.indices);
-        for (slot, &id) in o.ids.iter().enumerate() {
-            o.slots[id as usize] = slot as u32;
-        }
+        o.index_slots();
         self.engine.solver.invalidate_setup();
     }
 

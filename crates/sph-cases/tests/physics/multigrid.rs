@@ -17,7 +17,10 @@ fn iterations(dx: f64) -> f64 {
             1,
         );
     let scene = Scene::parse("taylor_green", &text).unwrap();
-    assert_eq!(scene.dx, dx, "the scene's text changed");
+    assert!(
+        scene.dx == dx && scene.dt == 1e-4 && scene.t_end == 3e-4,
+        "the scene's text changed"
+    );
     let (out, _) = run(&scene, SchemeKind::Dg);
     assert!(out.failure.is_none(), "{:?}", out.failure);
     out.results["solver_iterations_mean"]
