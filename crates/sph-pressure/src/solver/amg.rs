@@ -30,9 +30,10 @@
 //! The cycle is a V(1, 2) cycle on the fine level ([`SWEEPS`], [`POST_SWEEPS`]) and, in
 //! hierarchies of four levels or more, a W-cycle below it (each coarse level visited twice per
 //! visit of its parent, see [`W_CYCLE_MIN_DEPTH`]), with damped Jacobi smoothing
-//! (`ω_s = 5/(3ρ)`, [`SMOOTH_WEIGHT`]): a fixed linear operator, as BiCGSTAB needs. The hierarchy may be kept for the next solves, with only the
-//! fine level refreshed from the new matrix (`setup` with `reuse`; the policy is in
-//! `PrecondState::setup`); its buffers are kept between solves.
+//! (`ω_s = 5/(3ρ)`, [`SMOOTH_WEIGHT`]): a fixed linear operator, as BiCGSTAB needs. The
+//! hierarchy may be kept for the next solves, with only the fine level refreshed from the new
+//! matrix (`setup` with `reuse`; the policy is in `PrecondState::setup`); its buffers are kept
+//! between solves.
 
 use crate::csr::{for_each_row_mut2, matvec};
 use crate::solver::CsrSystem;
@@ -336,19 +337,35 @@ impl Amg {
             .for_each(|(i, (g, (c, big)))| {
                 // The largest off-diagonal |a_ij| over the columns the row keeps (the row
                 // scaling does not change which entries are weak).
-                let (mut hits, mut b) = (false, 0.0f64);
-                for k in a.offsets[i]..a.offsets[i + 1] {
-                    let j = a.cols[k] as usize;
-                    hits |= dense[j];
-                    if j != i && !dense[j] {
-                        b = b.max(a.values[k].abs());
+                // Four running maxima (a maximum is exact in any order): one would wait on
+                // the latency of each comparison. Entries are finite (checked at assembly).
+                let row = a.offsets[i]..a.offsets[i + 1];
+                let (cols, vals) = (&a.cols[row.clone()], &a.values[row.clone()]);
+                let (mut hits, mut m) = (false, [0.0f64; 4]);
+                let q = cols.len() / 4 * 4;
+                for (c4, v4) in cols[..q].chunks_exact(4).zip(vals[..q].chunks_exact(4)) {
+                    for l in 0..4 {
+                        let j = c4[l] as usize;
+                        hits |= dense[j];
+                        let v = if j != i && !dense[j] {
+                            v4[l].abs()
+                        } else {
+                            0.0
+                        };
+                        m[l] = if v > m[l] { v } else { m[l] };
                     }
                 }
+                for (&j, v) in cols[q..].iter().zip(&vals[q..]) {
+                    let j = j as usize;
+                    hits |= dense[j];
+                    if j != i && !dense[j] && v.abs() > m[0] {
+                        m[0] = v.abs();
+                    }
+                }
+                let b = m[0].max(m[1]).max(m[2].max(m[3]));
                 *g = !dense[i] && hits;
                 *big = b;
-                *c = (a.offsets[i]..a.offsets[i + 1])
-                    .filter(|&k| keep(i, k, b))
-                    .count();
+                *c = row.filter(|&k| keep(i, k, b)).count();
             });
         for i in 0..n {
             l0.a.offsets[i + 1] += l0.a.offsets[i];

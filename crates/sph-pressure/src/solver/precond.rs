@@ -81,23 +81,37 @@ impl PrecondState {
         reuse: bool,
     ) -> Result<(), SolveError> {
         let n = a.n();
-        self.diag_pos.clear();
-        for i in 0..n {
-            let row = &a.cols[a.offsets[i]..a.offsets[i + 1]];
-            let Ok(k) = row.binary_search(&(i as u32)) else {
-                return Err(SolveError::SingularPivot { row: i, value: 0.0 });
-            };
-            self.diag_pos.push(a.offsets[i] + k);
+        // In parallel; a missing or bad diagonal is marked and the first such row reported, as
+        // a sequential loop would.
+        self.diag_pos.resize(n, 0);
+        self.diag_pos
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(4096)
+            .for_each(|(i, pos)| {
+                let row = &a.cols[a.offsets[i]..a.offsets[i + 1]];
+                *pos = row
+                    .binary_search(&(i as u32))
+                    .map_or(usize::MAX, |k| a.offsets[i] + k);
+            });
+        if let Some(row) = self.diag_pos.iter().position(|&p| p == usize::MAX) {
+            return Err(SolveError::SingularPivot { row, value: 0.0 });
         }
         if matches!(kind, Preconditioner::Jacobi | Preconditioner::Amg) {
             // Jacobi's M⁻¹, and AMG's row scaling.
-            self.inv_diag.clear();
-            for i in 0..n {
-                let d = a.values[self.diag_pos[i]];
-                if d == 0.0 || !d.is_finite() {
-                    return Err(SolveError::SingularPivot { row: i, value: d });
-                }
-                self.inv_diag.push(1.0 / d);
+            self.inv_diag.resize(n, 0.0);
+            self.inv_diag
+                .par_iter_mut()
+                .zip(self.diag_pos.par_iter())
+                .with_min_len(4096)
+                .for_each(|(inv, &k)| *inv = 1.0 / a.values[k]);
+            if let Some(row) = self
+                .inv_diag
+                .iter()
+                .position(|v| *v == 0.0 || !v.is_finite())
+            {
+                let value = a.values[self.diag_pos[row]];
+                return Err(SolveError::SingularPivot { row, value });
             }
         }
         match kind {
