@@ -1,7 +1,7 @@
 //! Pressure rows of wall (dummy) particles and the gauge of closed domains.
 
 use crate::SolveError;
-use crate::csr::{CsrMatrix, for_each_row_mut};
+use crate::csr::{CsrMatrix, for_each_row_mut, for_each_row_mut2};
 use crate::error::PressureError;
 use crate::solver::{CsrSystem, LinearSolver, SolveInfo, SolveParams};
 use rayon::prelude::*;
@@ -151,20 +151,28 @@ impl MeanZeroGauge {
             .sum::<f64>()
             / gauge_rows.max(1) as f64;
         let s = if diag_mean > 0.0 { diag_mean } else { 1.0 };
+        // The rows of M, each gauge row with the border column appended: row i moves by
+        // min(i, |G|) places. Copied in parallel, row by row.
         self.offsets.clear();
-        self.cols.clear();
-        self.values.clear();
-        self.offsets.push(0);
-        for i in 0..n {
-            let (a, b) = (system.offsets[i], system.offsets[i + 1]);
-            self.cols.extend_from_slice(&system.cols[a..b]);
-            self.values.extend_from_slice(&system.values[a..b]);
-            if i < gauge_rows {
-                self.cols.push(n as u32);
-                self.values.push(s);
-            }
-            self.offsets.push(self.cols.len());
-        }
+        self.offsets
+            .extend((0..=n).map(|i| system.offsets[i] + i.min(gauge_rows)));
+        let body = self.offsets[n];
+        self.cols.resize(body, 0);
+        self.values.resize(body, 0.0);
+        for_each_row_mut2(
+            &self.offsets,
+            &mut self.cols,
+            &mut self.values,
+            &|i, cols, vals| {
+                let (a, b) = (system.offsets[i], system.offsets[i + 1]);
+                cols[..b - a].copy_from_slice(&system.cols[a..b]);
+                vals[..b - a].copy_from_slice(&system.values[a..b]);
+                if i < gauge_rows {
+                    cols[b - a] = n as u32;
+                    vals[b - a] = s;
+                }
+            },
+        );
         // Border row: the constraint s·Σ_G p_i = 0 plus the sum of the gauge rows (an
         // equivalent system) so that its diagonal, s·|G|, is non-zero for Jacobi and ILU(0):
         //   Σ_j (s·[j∈G] + Σ_{i∈G} M_ij) p_j + s|G| λ = Σ_{i∈G} b_i.
