@@ -151,11 +151,13 @@ impl MeanZeroGauge {
             .sum::<f64>()
             / gauge_rows.max(1) as f64;
         let s = if diag_mean > 0.0 { diag_mean } else { 1.0 };
-        // The rows of M, each gauge row with the border column appended: row i moves by
-        // min(i, |G|) places. Copied in parallel, row by row.
+        // The rows of M, each gauge row with the border column appended: row i starts
+        // min(i, |G|) places further on (offsets taken from 0, whatever the system's first).
+        // Copied in parallel, row by row.
+        let first = system.offsets[0];
         self.offsets.clear();
         self.offsets
-            .extend((0..=n).map(|i| system.offsets[i] + i.min(gauge_rows)));
+            .extend((0..=n).map(|i| system.offsets[i] - first + i.min(gauge_rows)));
         let body = self.offsets[n];
         self.cols.resize(body, 0);
         self.values.resize(body, 0.0);
