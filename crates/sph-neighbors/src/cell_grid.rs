@@ -127,11 +127,17 @@ impl<D: Dim> CellGrid<D> {
                 let run = self.run(x_lo, x_hi, y, z);
                 let pts = &self.sorted_pts[run.clone()];
                 let ids = &self.sorted_idx[run];
+                // Branch-free compaction: every candidate is written at the end of the list
+                // and kept by advancing the end only if it lies within the radius (about a
+                // third do, in no predictable pattern, so a branch per candidate mispredicts
+                // often). The same rows as a `push` under an `if`.
+                let mut end = buf.len();
+                buf.resize(end + ids.len(), 0);
                 for (x, &j) in pts.iter().zip(ids) {
-                    if (*x - *q).length_squared() <= r2 {
-                        buf.push(j);
-                    }
+                    buf[end] = j;
+                    end += usize::from((*x - *q).length_squared() <= r2);
                 }
+                buf.truncate(end);
             }
         }
     }
