@@ -128,9 +128,10 @@ impl<D: Dim> CellGrid<D> {
                 let pts = &self.sorted_pts[run.clone()];
                 let ids = &self.sorted_idx[run];
                 // Branch-free compaction: every candidate is written at the end of the list
-                // and kept by advancing the end only if it lies within the radius (about a
-                // third do, in no predictable pattern, so a branch per candidate mispredicts
-                // often). The same rows as a `push` under an `if`.
+                // and kept by advancing the end only if it lies within the radius (π/9 ≈ 35 %
+                // of the scanned cells' area in 2D, 4π/81 ≈ 16 % in 3D, in no predictable
+                // pattern, so a branch per candidate mispredicts often). The same rows as a
+                // `push` under an `if`.
                 let mut end = buf.len();
                 buf.resize(end + ids.len(), 0);
                 for (x, &j) in pts.iter().zip(ids) {
