@@ -353,7 +353,7 @@ fn projection_passes<D: Dim>(
         shift(&sim.engine, bufs, x_eval, sh, dt);
         phases.add(Phase::Shifting, clock);
     }
-    let max_displacement = check_displacements(&sim.engine, p, &sim.buf.disp, step, t)?;
+    let max_displacement = check_displacements(&sim.engine, p, &sim.buf.disp, dt, step, t)?;
     let wall_guarded = guard_walls(&sim.engine, p, &mut sim.buf.disp, &mut sim.buf.u_new);
     let det_f = if det_f_wanted {
         let clock = Instant::now();
@@ -407,6 +407,7 @@ fn check_displacements<D: Dim>(
     e: &Engine<D>,
     p: &ParticleSet<D>,
     disp: &[D::Vector],
+    dt: f64,
     step: usize,
     t: f64,
 ) -> Result<f64, StepError> {
@@ -428,6 +429,11 @@ fn check_displacements<D: Dim>(
             particle: far,
             value,
             limit,
+            viscous_number: e
+                .config
+                .effects
+                .viscosity
+                .map_or(0.0, |v| v.nu * dt / (h * h)),
         });
     }
     if let Some(w) = &e.walls {

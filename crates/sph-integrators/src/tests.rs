@@ -115,6 +115,19 @@ sph_core::dim_tests! {
             }
             assert_eq!(sim.particles.positions, before.positions);
             assert_eq!(sim.step, 0);
+            // With viscosity the error gives the step's viscous number ν Δt / h² (0 without).
+            let (p, mut cfg) = drop::<D>();
+            cfg.effects.viscosity = Some(crate::Viscosity { nu: 0.05 });
+            let mut viscous = Simulation::new(p, cfg).unwrap();
+            let err = Scheme::new(kind).step(&mut viscous, 0.01).unwrap_err();
+            match &err {
+                StepError::BlowUp { viscous_number, .. } => {
+                    let expected = 0.05 * 0.01 / (h * h);
+                    assert!((viscous_number - expected).abs() <= 1e-12 * expected, "{kind:?}: {viscous_number} against {expected}");
+                    assert!(err.to_string().contains(&format!("ν Δt / h² is {expected:.3}")), "{err}");
+                }
+                e => panic!("{kind:?}: unexpected {e:?}"),
+            }
             // A reasonable step passes and reports its largest displacement.
             let r = Scheme::new(kind).step(&mut sim, 1e-4).unwrap();
             let rim = 30.0 * 1e-4 / h;
@@ -401,6 +414,7 @@ fn step_errors_name_initial_indices() {
         particle: 1,
         value: 3.0,
         limit: 1.0,
+        viscous_number: 0.0,
     };
     match e.with_particle_ids(&[5, 7, 6]) {
         StepError::BlowUp { particle, .. } => assert_eq!(particle, 7),
