@@ -113,6 +113,9 @@ pub struct GhiaDeviation {
     pub v_max: f64,
 }
 
+/// Probes whose neighbour lists are built at a time in [`DensityProbe::measure`].
+const PROBE_BLOCK: usize = 1 << 14;
+
 /// Probe array and scratch of the Eq. (31) density measurement.
 struct DensityProbe<D: Dim> {
     probes: Vec<D::Vector>,
@@ -158,15 +161,24 @@ impl<D: Dim> DensityProbe<D> {
                 what: "density probes",
                 message: e.to_string(),
             })?;
-        self.grid.query(&self.probes, &mut self.lists);
-        density_at_points(
-            &self.probes,
-            &self.lists,
-            &p.positions,
-            &p.masses,
-            sim.kernel(),
-            &mut self.rho,
-        );
+        // Block by block, so the probes' neighbour lists never hold more than one block: at
+        // one probe per particle the whole array's would cost as much as the run's own lists.
+        // Each probe's row, hence its ρ̂, is the same in any blocking.
+        for (probes, rho) in self
+            .probes
+            .chunks(PROBE_BLOCK)
+            .zip(self.rho.chunks_mut(PROBE_BLOCK))
+        {
+            self.grid.query(probes, &mut self.lists);
+            density_at_points(
+                probes,
+                &self.lists,
+                &p.positions,
+                &p.masses,
+                sim.kernel(),
+                rho,
+            );
+        }
         if self.rho_initial.is_empty() {
             self.rho_initial = self.rho.clone();
         }
@@ -506,8 +518,12 @@ pub fn profiles<D: Dim>(
             what: "centreline profiles",
             message: e.to_string(),
         })?;
+    // Rows for the wall particles only (the fluid's empty): the no-slip extrapolation reads
+    // nothing else, and a self-join of every particle would cost as much memory as the run's
+    // own neighbour lists at every record.
     let mut lists = NeighborList::new();
-    grid.query(&p.positions, &mut lists);
+    grid.query(&p.positions[nf..], &mut lists);
+    lists.prepend_empty_rows(nf);
     let volumes: Vec<f64> = p
         .masses
         .iter()

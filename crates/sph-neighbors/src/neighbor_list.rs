@@ -38,6 +38,13 @@ impl NeighborList {
         }
     }
 
+    /// Puts `count` empty rows before the first, so row `i` becomes row `count + i`: lists
+    /// queried for the tail `points[count..]` of a point set can then be read with the whole
+    /// set's indices (the fluid rows empty, the wall rows filled, say).
+    pub fn prepend_empty_rows(&mut self, count: usize) {
+        self.offsets.splice(0..0, std::iter::repeat_n(0, count));
+    }
+
     /// Number of rows (query points).
     pub fn len(&self) -> usize {
         self.offsets.len().saturating_sub(1)

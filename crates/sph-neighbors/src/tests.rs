@@ -28,6 +28,27 @@ fn check_against_brute_force<D: Dim>(points: &[D::Vector], queries: &[D::Vector]
 }
 
 sph_core::dim_tests! {
+    /// Lists queried for a tail of the points, with the head's rows prepended empty, equal the
+    /// whole self-join's rows on the tail and are empty on the head.
+    fn a_tail_query_with_empty_head_rows_matches_the_self_join<D>() {
+        let pts = random_cloud::<D>(900, -1.0, 1.0, 11);
+        let r = 0.25;
+        for (name, mut s) in searches::<D>() {
+            s.build(&pts, r).unwrap();
+            let mut all = NeighborList::new();
+            s.query(&pts, &mut all);
+            let mut tail = NeighborList::new();
+            s.query(&pts[600..], &mut tail);
+            tail.prepend_empty_rows(600);
+            assert_eq!(tail.len(), pts.len(), "{name}");
+            for i in 0..pts.len() {
+                let expect: &[u32] = if i < 600 { &[] } else { all.row(i) };
+                assert_eq!(tail.row(i), expect, "{name} {}: row {i}", D::NAME);
+            }
+            assert!(all.row(700).len() > 1, "{name}: the tail rows are not trivially empty");
+        }
+    }
+
     fn random_clouds_match_brute_force<D>() {
         for (n, seed) in [(10, 1), (1500, 2), (4000, 3)] {
             let pts = random_cloud::<D>(n, -1.0, 1.0, seed);
