@@ -251,18 +251,20 @@ impl RunSink for RunFiles {
 
     fn table(&mut self, table: &Table) -> std::io::Result<()> {
         let path = self.out.join(format!("{}_{}.csv", self.run, table.name));
-        let mut text = table.columns.join(",");
-        text.push('\n');
-        for r in &table.rows {
-            text.push_str(
-                &r.iter()
-                    .map(|v| csv_value(*v))
-                    .collect::<Vec<_>>()
-                    .join(","),
-            );
-            text.push('\n');
-        }
-        write_atomic(&path, text.as_bytes())
+        // Streamed: a field at every particle of a large run is not first built as one string.
+        write_atomic_with(&path, |w| {
+            writeln!(w, "{}", table.columns.join(","))?;
+            for r in table.rows() {
+                for (k, v) in r.iter().enumerate() {
+                    if k > 0 {
+                        w.write_all(b",")?;
+                    }
+                    w.write_all(csv_value(*v).as_bytes())?;
+                }
+                w.write_all(b"\n")?;
+            }
+            Ok(())
+        })
     }
 
     fn checkpoint(&mut self, checkpoint: &Checkpoint) -> std::io::Result<()> {
@@ -282,12 +284,21 @@ pub fn checkpoint_path(out: &Path, run: &str) -> PathBuf {
 /// Writes `bytes` to a temporary file beside `path` and renames it over `path`, so a reader
 /// (or a run killed mid-write) sees the old file or the new one, never a torn one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_atomic_with(path, |w| w.write_all(bytes))
+}
+
+/// [`write_atomic`] with the contents written by `write` through a buffer.
+pub fn write_atomic_with(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> std::io::Result<()> {
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let tmp = PathBuf::from(tmp);
     {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        write(&mut w)?;
+        let f = w.into_inner().map_err(|e| e.into_error())?;
         f.sync_all()?;
     }
     std::fs::rename(&tmp, path)

@@ -197,19 +197,14 @@ impl<D: Dim> DensityProbe<D> {
 
     /// The error field `ρ̂/ρ₀ − 1` of the last measurement, as a table named `density_t<t>`.
     fn table(&self, t: f64, rho0: f64) -> Table {
-        Table {
-            name: format!("density_t{t:.3}"),
-            columns: ["x", "y", "z", "density_error"].map(String::from).to_vec(),
-            rows: self
-                .probes
-                .iter()
-                .zip(&self.rho)
-                .map(|(x, r)| {
-                    let a = x.to_array3();
-                    vec![a[0], a[1], a[2], r / rho0 - 1.0]
-                })
-                .collect(),
-        }
+        Table::from_rows(
+            format!("density_t{t:.3}"),
+            ["x", "y", "z", "density_error"],
+            self.probes.iter().zip(&self.rho).map(|(x, r)| {
+                let a = x.to_array3();
+                [a[0], a[1], a[2], r / rho0 - 1.0]
+            }),
+        )
     }
 }
 
@@ -374,24 +369,16 @@ impl<D: Dim> Case<D> for CavityCase<D> {
         let re = self.reynolds();
         let prof = profiles(sim, re, &self.refs)?;
         let mut tables = vec![
-            Table {
-                name: "u_profile".into(),
-                columns: ["y", "u", "u_ghia"].map(String::from).to_vec(),
-                rows: prof
-                    .u_vertical
-                    .iter()
-                    .map(|(c, v, g)| vec![*c, *v, *g])
-                    .collect(),
-            },
-            Table {
-                name: "v_profile".into(),
-                columns: ["x", "v", "v_ghia"].map(String::from).to_vec(),
-                rows: prof
-                    .v_horizontal
-                    .iter()
-                    .map(|(c, v, g)| vec![*c, *v, *g])
-                    .collect(),
-            },
+            Table::from_rows(
+                "u_profile",
+                ["y", "u", "u_ghia"],
+                prof.u_vertical.iter().map(|&(c, v, g)| [c, v, g]),
+            ),
+            Table::from_rows(
+                "v_profile",
+                ["x", "v", "v_ghia"],
+                prof.v_horizontal.iter().map(|&(c, v, g)| [c, v, g]),
+            ),
         ];
         // The density field at the end (unless a snapshot was just taken at this time).
         let snapshot_now = self
