@@ -2,9 +2,10 @@
 //! and on the Re 100 lid-driven cavity at 100² and 200² with every solver, and at 500² and
 //! 1000² with BiCGSTAB + AMG (`integrators/cavity_<solver>/<scheme>/<n>`; the larger sizes
 //! take minutes: select one with a filter, e.g. `-- cavity_bicgstab_amg/dg/25`), diagnostics
-//! off: the cost of DG relative to Euler and PC, and of a whole step at the sizes users run. The timed step is the third of the
-//! run (two untimed steps first): step 1 from the initial field is not representative (Euler's
-//! PPE source ∇·u* is ≈ 0 there, so its solve chases a relative tolerance on a tiny vector).
+//! off: the cost of DG relative to Euler and PC, and of a whole step at the sizes users run.
+//! The timed step is the third of the run (two untimed steps first): step 1 from the initial
+//! field is not representative (Euler's PPE source ∇·u* is ≈ 0 there, so its solve chases a
+//! relative tolerance on a tiny vector).
 
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use dgsph_benches::drop_scene;
@@ -54,8 +55,8 @@ fn bench<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
 /// The Re 100 cavity (`cases/cavity_re100.toml`) at spacing `dx` with `solver`. The step keeps
 /// the scene's lid Courant number `U Δt / dx = 1/4` or its viscous number `ν Δt / dx² = 1/4`,
 /// whichever gives the smaller step: at 100² both are the scene's; below dx = ν/U = 0.01 the
-/// viscous one sets it (the viscous term is explicit: the 500² cavity at `Δt = dx/4`, viscous
-/// number 1.25, blew up in its second step).
+/// viscous one sets it (the viscous term is explicit: the 500² cavity at `Δt = dx/4`, where
+/// `ν Δt / dx² = 1.25`, blew up in its second step).
 fn cavity(c: &mut Criterion, dx: f64, solver: &str) {
     let mut group = c.benchmark_group("integrators");
     group.sample_size(10);
