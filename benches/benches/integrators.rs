@@ -1,4 +1,5 @@
-//! One full time step of each scheme on the paper's drops (`integrators/<scheme>/<dim>/<n>`)
+//! One full time step of each scheme on the paper's drops (`integrators/<scheme>/<dim>/<n>`; the
+//! 3D spheroid at dx = 0.05, 1/30 and 0.025)
 //! and on the Re 100 lid-driven cavity at 100² and 200² with every solver, and at 500² and
 //! 1000² with BiCGSTAB + AMG (`integrators/cavity_<solver>/<scheme>/<n>`; the larger sizes
 //! take minutes: select one with a filter, e.g. `-- cavity_bicgstab_amg/dg/25`), diagnostics
@@ -123,7 +124,10 @@ fn integrators(c: &mut Criterion) {
     }
     bench::<D2>(c, CaseKind::EllipticalDrop, 0.025);
     bench::<D2>(c, CaseKind::EllipticalDrop, 0.0125);
-    bench::<D3>(c, CaseKind::SpheroidDrop, 0.05);
+    // The spheroid at the coarse size, the quick preset's (dx = 1/30) and the paper's (0.025).
+    for dx in [0.05, 1.0 / 30.0, 0.025] {
+        bench::<D3>(c, CaseKind::SpheroidDrop, dx);
+    }
 }
 
 criterion_group!(benches, integrators);
