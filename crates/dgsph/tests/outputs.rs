@@ -180,3 +180,42 @@ fn check_prints_counts_memory_and_steps_without_running() {
     assert!(text(&o).contains(env!("CARGO_PKG_VERSION")));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The cavity's tables as CSV files, parsed here: the centreline profile (17 Ghia points, the
+/// lid's Ghia value 1 at y = 1) and the end-of-run density field (one row per probe of the
+/// 10 × 10 probe array, inside the cavity, finite errors).
+#[test]
+fn cavity_tables_read_back_as_csv() {
+    let dir = scratch("tables");
+    let s = scene(&dir, "c", &cavity(0.02));
+    let out = dir.join("o");
+    let o = dgsph(&["run", s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let parse = |file: &str| -> (String, Vec<Vec<f64>>) {
+        let t = std::fs::read_to_string(out.join(file)).unwrap();
+        let mut lines = t.lines();
+        let header = lines.next().unwrap().to_string();
+        let rows = lines
+            .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect())
+            .collect();
+        (header, rows)
+    };
+    let (header, rows) = parse("c_dg_u_profile.csv");
+    assert_eq!(header, "y,u,u_ghia");
+    assert_eq!(rows.len(), 17, "Ghia et al.'s u(0.5, y) points");
+    assert!(rows.iter().all(|r| r.len() == 3 && r[1].is_finite()));
+    let top = rows.iter().find(|r| r[0] == 1.0).expect("the lid's row");
+    assert_eq!(top[2], 1.0);
+    let (header, rows) = parse("c_dg_density_t0.020.csv");
+    assert_eq!(header, "x,y,z,density_error");
+    assert_eq!(rows.len(), 100, "one row per probe");
+    for r in &rows {
+        assert_eq!(r.len(), 4);
+        assert!(
+            r[0] > 0.0 && r[0] < 1.0 && r[1] > 0.0 && r[1] < 1.0 && r[2] == 0.0,
+            "{r:?}"
+        );
+        assert!(r[3].is_finite() && r[3].abs() < 0.5, "{r:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
