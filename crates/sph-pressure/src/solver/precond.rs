@@ -11,7 +11,7 @@ pub enum Preconditioner {
     /// Incomplete LU with zero fill on the matrix's own pattern (Saad 2003, Alg. 10.4).
     /// Sequential setup and triangular solves; cuts iterations several-fold on SPH Laplacians.
     Ilu0,
-    /// Smoothed-aggregation algebraic multigrid, one V(1,2) cycle per application (see the
+    /// Smoothed-aggregation algebraic multigrid, one cycle per application (see the
     /// `amg` module). Iterations nearly independent of resolution; hierarchy kept between
     /// solves while it serves.
     Amg,
