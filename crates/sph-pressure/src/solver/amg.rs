@@ -328,7 +328,12 @@ impl Amg {
         // (see [`FILTER`]). In parallel: each row's kept entries and whether it meets a dense
         // column, the offsets, then each row's columns and values filled in place.
         let l0 = &mut self.levels[0];
-        l0.a.clear(n); // offsets = [0]; a CSR's offsets start at 0
+        // offsets = [0] (a CSR's offsets start at 0); the columns and values keep their
+        // length, since the fill below overwrites every entry: resizing an emptied vector would
+        // zero it first, a pass over the whole level at every step.
+        l0.a.offsets.clear();
+        l0.a.offsets.push(0);
+        l0.a.ncols = n;
         let dense = &self.dense;
         // A level solved directly is solved for the matrix itself.
         let filter = if n > COARSE_MAX { FILTER } else { 0.0 };
@@ -931,7 +936,8 @@ mod tests {
     /// `|a_ij| ≥ 0.1 · max_{j≠i, non-dense} |a_ij|`, in order, scaled by `1/a_ii`; the dropped
     /// entries of non-dense columns are added to its diagonal (so its row sum over the
     /// non-dense columns is that of `D⁻¹A`); the dense row keeps only its diagonal. Entry
-    /// magnitudes vary pseudo-randomly, so about a third are dropped in no regular pattern.
+    /// magnitudes are cubes of pseudo-random numbers, so entries are dropped in no regular
+    /// pattern.
     #[test]
     fn fine_level_is_the_filtered_scaled_matrix() {
         let n = 401; // > COARSE_MAX: the filter applies
