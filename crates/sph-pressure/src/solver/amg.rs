@@ -120,10 +120,16 @@ impl Csr {
         self.offsets.len().saturating_sub(1)
     }
     fn clear(&mut self, ncols: usize) {
-        self.offsets.clear();
-        self.offsets.push(0);
+        self.clear_rows(ncols);
         self.cols.clear();
         self.values.clear();
+    }
+    /// No rows (`offsets = [0]`: a CSR's offsets start at 0), `ncols` columns; the entries keep
+    /// their length for a caller that overwrites every one (resizing an emptied vector would
+    /// zero it first).
+    fn clear_rows(&mut self, ncols: usize) {
+        self.offsets.clear();
+        self.offsets.push(0);
         self.ncols = ncols;
     }
     fn matvec(&self, x: &[f64], y: &mut [f64]) {
@@ -328,12 +334,8 @@ impl Amg {
         // (see [`FILTER`]). In parallel: each row's kept entries and whether it meets a dense
         // column, the offsets, then each row's columns and values filled in place.
         let l0 = &mut self.levels[0];
-        // offsets = [0] (a CSR's offsets start at 0); the columns and values keep their
-        // length, since the fill below overwrites every entry: resizing an emptied vector would
-        // zero it first, a pass over the whole level at every step.
-        l0.a.offsets.clear();
-        l0.a.offsets.push(0);
-        l0.a.ncols = n;
+        // The fill below overwrites every entry: no pass zeroing the level at every step.
+        l0.a.clear_rows(n);
         let dense = &self.dense;
         // A level solved directly is solved for the matrix itself.
         let filter = if n > COARSE_MAX { FILTER } else { 0.0 };
