@@ -37,7 +37,7 @@
 //! matrix (`setup` with `reuse`; the policy is in `PrecondState::setup`); its buffers are kept
 //! between solves.
 
-use crate::csr::{for_each_row_mut2, matvec};
+use crate::csr::{OwnedCsr, for_each_row_mut2};
 use crate::solver::CsrSystem;
 use rayon::prelude::*;
 
@@ -106,36 +106,8 @@ const ZERO_PIVOT: f64 = 1e-9;
 /// No aggregate.
 const NONE: u32 = u32::MAX;
 
-/// An owned CSR matrix (possibly rectangular).
-#[derive(Clone, Debug, Default)]
-struct Csr {
-    offsets: Vec<usize>,
-    cols: Vec<u32>,
-    values: Vec<f64>,
-    ncols: usize,
-}
-
-impl Csr {
-    fn nrows(&self) -> usize {
-        self.offsets.len().saturating_sub(1)
-    }
-    fn clear(&mut self, ncols: usize) {
-        self.clear_rows(ncols);
-        self.cols.clear();
-        self.values.clear();
-    }
-    /// No rows (`offsets = [0]`: a CSR's offsets start at 0), `ncols` columns; the entries keep
-    /// their length for a caller that overwrites every one (resizing an emptied vector would
-    /// zero it first).
-    fn clear_rows(&mut self, ncols: usize) {
-        self.offsets.clear();
-        self.offsets.push(0);
-        self.ncols = ncols;
-    }
-    fn matvec(&self, x: &[f64], y: &mut [f64]) {
-        matvec(&self.offsets, &self.cols, &self.values, x, y);
-    }
-}
+/// An owned CSR matrix (possibly rectangular), sealed for its products once built.
+type Csr = OwnedCsr;
 
 /// One level: its matrix (the fine level's is the scaled copy of `A`), the prolongation to it
 /// from the next coarser level and the restriction `R = Pᵀ`, and its work vectors.
@@ -180,10 +152,10 @@ impl DenseLu {
         self.lu.resize(n * n, 0.0);
         let mut trace = 0.0;
         for i in 0..n {
-            for k in a.offsets[i]..a.offsets[i + 1] {
-                self.lu[i * n + a.cols[k] as usize] += a.values[k];
-                if a.cols[k] as usize == i {
-                    trace += a.values[k];
+            for k in a.offsets()[i]..a.offsets()[i + 1] {
+                self.lu[i * n + a.cols()[k] as usize] += a.values()[k];
+                if a.cols()[k] as usize == i {
+                    trace += a.values()[k];
                 }
             }
         }
@@ -286,7 +258,7 @@ impl Amg {
     pub(crate) fn shape(&self) -> Vec<(usize, usize)> {
         self.levels[..self.depth]
             .iter()
-            .map(|l| (l.a.nrows(), l.a.cols.len()))
+            .map(|l| (l.a.nrows(), l.a.cols().len()))
             .collect()
     }
 
@@ -295,7 +267,13 @@ impl Amg {
     #[cfg(test)]
     pub(crate) fn fine_smoother(&self) -> (&[usize], &[u32], &[f64], &[f64], f64) {
         let l = &self.levels[0];
-        (&l.a.offsets, &l.a.cols, &l.a.values, &l.inv_diag, l.omega)
+        (
+            l.a.offsets(),
+            l.a.cols(),
+            l.a.values(),
+            &l.inv_diag,
+            l.omega,
+        )
     }
 
     /// Builds the hierarchy for `a`, whose inverse diagonal (all finite) is `inv_diag`.
@@ -305,6 +283,19 @@ impl Amg {
     /// the new matrix and corrects with the old coarse spaces. Returns whether the whole
     /// hierarchy was built.
     pub(crate) fn setup(&mut self, a: &CsrSystem<'_>, inv_diag: &[f64], reuse: bool) -> bool {
+        let full = self.build(a, inv_diag, reuse);
+        // The V-cycle's products gather without a check per entry once each matrix's columns
+        // have been checked against its width (a matrix the rebuild left unchanged stays sealed).
+        for l in &mut self.levels[..self.depth] {
+            l.a.seal();
+            l.p.seal();
+            l.r.seal();
+        }
+        full
+    }
+
+    /// [`setup`](Self::setup)'s construction of the hierarchy.
+    fn build(&mut self, a: &CsrSystem<'_>, inv_diag: &[f64], reuse: bool) -> bool {
         let n = a.n();
         if self.levels.is_empty() {
             self.levels.push(Level::default());
@@ -326,9 +317,10 @@ impl Amg {
         for i in (0..n).filter(|&i| self.dense[i]) {
             self.dense_idx.push(i);
             let row = a.offsets[i]..a.offsets[i + 1];
-            self.dense_rows.cols.extend_from_slice(&a.cols[row.clone()]);
-            self.dense_rows.values.extend_from_slice(&a.values[row]);
-            self.dense_rows.offsets.push(self.dense_rows.cols.len());
+            let (offsets, cols, values) = self.dense_rows.parts_mut();
+            cols.extend_from_slice(&a.cols[row.clone()]);
+            values.extend_from_slice(&a.values[row]);
+            offsets.push(cols.len());
         }
         // Fine level: Â = D⁻¹ A with the dense columns dropped and the weak entries lumped
         // (see [`FILTER`]). In parallel: each row's kept entries and whether it meets a dense
@@ -346,15 +338,12 @@ impl Amg {
         let keep = |i: usize, j: usize, v: f64, big: f64| {
             (j == i) | (!dense[i] & !dense[j] & (v.abs() >= filter * big))
         };
-        l0.a.offsets.resize(n + 1, 0);
+        let (offsets, cols, values) = l0.a.parts_mut();
+        offsets.resize(n + 1, 0);
         self.row_big.resize(n, 0.0);
         self.in_gauge
             .par_iter_mut()
-            .zip(
-                l0.a.offsets[1..]
-                    .par_iter_mut()
-                    .zip(self.row_big.par_iter_mut()),
-            )
+            .zip(offsets[1..].par_iter_mut().zip(self.row_big.par_iter_mut()))
             .enumerate()
             .with_min_len(1024)
             .for_each(|(i, (g, (c, big)))| {
@@ -395,41 +384,36 @@ impl Amg {
                     .sum();
             });
         for i in 0..n {
-            l0.a.offsets[i + 1] += l0.a.offsets[i];
+            offsets[i + 1] += offsets[i];
         }
-        let nnz = l0.a.offsets[n];
-        l0.a.cols.resize(nnz, 0);
-        l0.a.values.resize(nnz, 0.0);
+        let nnz = offsets[n];
+        cols.resize(nnz, 0);
+        values.resize(nnz, 0.0);
         let row_big = &self.row_big;
-        for_each_row_mut2(
-            &l0.a.offsets,
-            &mut l0.a.cols,
-            &mut l0.a.values,
-            &|i, cols, vals| {
-                let (b, inv) = (row_big[i], inv_diag[i]);
-                let row = a.offsets[i]..a.offsets[i + 1];
-                let (acols, avals) = (&a.cols[row.clone()], &a.values[row]);
-                let (mut lumped, mut diag, mut w) = (0.0, 0, 0);
-                // Each entry is written to the next free place and the place advanced only if
-                // kept, so no branch depends on the entry; while w < cols.len() (the count
-                // above) the write is in bounds. A dropped entry of a non-dense row and column
-                // is lumped into the diagonal (0 is added for the others: the same sum).
-                for (&c, &v) in acols.iter().zip(avals) {
-                    let j = c as usize;
-                    let kept = keep(i, j, v, b);
-                    if w < cols.len() {
-                        cols[w] = c;
-                        vals[w] = v * inv;
-                    }
-                    diag = if j == i { w } else { diag };
-                    let lump = !kept & !dense[i] & !dense[j];
-                    lumped += if lump { v * inv } else { 0.0 };
-                    w += usize::from(kept);
+        for_each_row_mut2(offsets, cols, values, &|i, cols, vals| {
+            let (b, inv) = (row_big[i], inv_diag[i]);
+            let row = a.offsets[i]..a.offsets[i + 1];
+            let (acols, avals) = (&a.cols[row.clone()], &a.values[row]);
+            let (mut lumped, mut diag, mut w) = (0.0, 0, 0);
+            // Each entry is written to the next free place and the place advanced only if
+            // kept, so no branch depends on the entry; while w < cols.len() (the count
+            // above) the write is in bounds. A dropped entry of a non-dense row and column
+            // is lumped into the diagonal (0 is added for the others: the same sum).
+            for (&c, &v) in acols.iter().zip(avals) {
+                let j = c as usize;
+                let kept = keep(i, j, v, b);
+                if w < cols.len() {
+                    cols[w] = c;
+                    vals[w] = v * inv;
                 }
-                debug_assert_eq!(w, cols.len());
-                vals[diag] += lumped;
-            },
-        );
+                diag = if j == i { w } else { diag };
+                let lump = !kept & !dense[i] & !dense[j];
+                lumped += if lump { v * inv } else { 0.0 };
+                w += usize::from(kept);
+            }
+            debug_assert_eq!(w, cols.len());
+            vals[diag] += lumped;
+        });
         // Reuse: keep the coarse levels (prolongations, Galerkin matrices, coarsest LU) of the
         // last full setup when they were built for the same unknowns and dense rows.
         if reuse
@@ -446,8 +430,8 @@ impl Amg {
         {
             let l0 = &self.levels[0];
             self.singular = (0..n).into_par_iter().with_min_len(1024).all(|i| {
-                let row = l0.a.offsets[i]..l0.a.offsets[i + 1];
-                let (sum, abs) = l0.a.values[row.clone()]
+                let row = l0.a.offsets()[i]..l0.a.offsets()[i + 1];
+                let (sum, abs) = l0.a.values()[row.clone()]
                     .iter()
                     .fold((0.0, 0.0), |(s, a), v| (s + v, a + v.abs()));
                 row.len() <= 1 || sum.abs() <= 1e-8 * abs
@@ -503,14 +487,14 @@ impl Amg {
             .enumerate()
             .with_min_len(1024)
             .map(|(i, inv)| {
-                let (s, e) = (a.offsets[i], a.offsets[i + 1]);
+                let (s, e) = (a.offsets()[i], a.offsets()[i + 1]);
                 let mut d = 0.0;
                 let mut abs = 0.0;
                 for k in s..e {
-                    if a.cols[k] as usize == i {
-                        d += a.values[k];
+                    if a.cols()[k] as usize == i {
+                        d += a.values()[k];
                     }
-                    abs += a.values[k].abs();
+                    abs += a.values()[k].abs();
                 }
                 *inv = if d != 0.0 && d.is_finite() {
                     1.0 / d
@@ -530,42 +514,42 @@ impl Amg {
         let m = a.nrows();
         // Strong connections, flagged per entry.
         self.strong.clear();
-        self.strong.resize(a.cols.len(), false);
+        self.strong.resize(a.cols().len(), false);
         for i in 0..m {
-            let (s, e) = (a.offsets[i], a.offsets[i + 1]);
+            let (s, e) = (a.offsets()[i], a.offsets()[i + 1]);
             let mut max = 0.0f64;
             for k in s..e {
-                let j = a.cols[k] as usize;
+                let j = a.cols()[k] as usize;
                 if j != i {
-                    max = max.max(a.values[k].abs());
+                    max = max.max(a.values()[k].abs());
                 }
             }
             if max == 0.0 {
                 continue;
             }
             for k in s..e {
-                let j = a.cols[k] as usize;
-                self.strong[k] = j != i && a.values[k].abs() >= STRENGTH * max;
+                let j = a.cols()[k] as usize;
+                self.strong[k] = j != i && a.values()[k].abs() >= STRENGTH * max;
             }
         }
         let agg = &mut self.agg;
         agg.clear();
         agg.resize(m, NONE);
         let mut nc = 0u32;
-        let has_strong = |i: usize| (a.offsets[i]..a.offsets[i + 1]).any(|k| self.strong[k]);
+        let has_strong = |i: usize| (a.offsets()[i]..a.offsets()[i + 1]).any(|k| self.strong[k]);
         // Pass 1: seeds whose strong neighbourhood is entirely free.
         for i in 0..m {
             if agg[i] != NONE || !has_strong(i) {
                 continue;
             }
-            let (s, e) = (a.offsets[i], a.offsets[i + 1]);
-            if (s..e).any(|k| self.strong[k] && agg[a.cols[k] as usize] != NONE) {
+            let (s, e) = (a.offsets()[i], a.offsets()[i + 1]);
+            if (s..e).any(|k| self.strong[k] && agg[a.cols()[k] as usize] != NONE) {
                 continue;
             }
             agg[i] = nc;
             for k in s..e {
                 if self.strong[k] {
-                    agg[a.cols[k] as usize] = nc;
+                    agg[a.cols()[k] as usize] = nc;
                 }
             }
             nc += 1;
@@ -577,12 +561,12 @@ impl Amg {
             if agg[i] != NONE {
                 continue;
             }
-            let (s, e) = (a.offsets[i], a.offsets[i + 1]);
+            let (s, e) = (a.offsets()[i], a.offsets()[i + 1]);
             let mut best = (0.0, NONE);
             for k in s..e {
-                let j = a.cols[k] as usize;
-                if self.strong[k] && pass1[j] != NONE && a.values[k].abs() > best.0 {
-                    best = (a.values[k].abs(), pass1[j]);
+                let j = a.cols()[k] as usize;
+                if self.strong[k] && pass1[j] != NONE && a.values()[k].abs() > best.0 {
+                    best = (a.values()[k].abs(), pass1[j]);
                 }
             }
             agg[i] = best.1;
@@ -593,8 +577,8 @@ impl Amg {
                 continue;
             }
             agg[i] = nc;
-            for k in a.offsets[i]..a.offsets[i + 1] {
-                let j = a.cols[k] as usize;
+            for k in a.offsets()[i]..a.offsets()[i + 1] {
+                let j = a.cols()[k] as usize;
                 if self.strong[k] && agg[j] == NONE {
                     agg[j] = nc;
                 }
@@ -616,52 +600,54 @@ impl Amg {
         };
         let p = &mut l.p;
         p.clear(nc);
+        let (p_offsets, p_cols, p_values) = p.parts_mut();
         self.marker.clear();
         self.marker.resize(nc, usize::MAX);
         for i in 0..m {
-            let row_start = p.cols.len();
+            let row_start = p_cols.len();
             {
                 let inv = l.inv_diag[i];
-                for k in a.offsets[i]..a.offsets[i + 1] {
-                    let j = a.cols[k] as usize;
+                for k in a.offsets()[i]..a.offsets()[i + 1] {
+                    let j = a.cols()[k] as usize;
                     if self.agg[j] == NONE {
                         continue;
                     }
-                    let c = if j == i { 1.0 } else { 0.0 } - omega * inv * a.values[k];
+                    let c = if j == i { 1.0 } else { 0.0 } - omega * inv * a.values()[k];
                     let g = self.agg[j] as usize;
                     // Markers left by earlier rows point before this row's start.
                     if self.marker[g] == usize::MAX || self.marker[g] < row_start {
-                        self.marker[g] = p.cols.len();
-                        p.cols.push(g as u32);
-                        p.values.push(c);
+                        self.marker[g] = p_cols.len();
+                        p_cols.push(g as u32);
+                        p_values.push(c);
                     } else {
-                        p.values[self.marker[g]] += c;
+                        p_values[self.marker[g]] += c;
                     }
                 }
                 // Diagonal of Â not in its own aggregate (an isolated node): P₀ row is empty.
             }
-            p.offsets.push(p.cols.len());
+            p_offsets.push(p_cols.len());
         }
         // R = Pᵀ by counting sort.
-        let r = &mut l.r;
+        let (p, r) = (&l.p, &mut l.r);
         r.clear(m);
-        r.offsets.clear();
-        r.offsets.resize(nc + 1, 0);
-        for &g in &p.cols {
-            r.offsets[g as usize + 1] += 1;
+        let (r_offsets, r_cols, r_values) = r.parts_mut();
+        r_offsets.clear();
+        r_offsets.resize(nc + 1, 0);
+        for &g in p.cols() {
+            r_offsets[g as usize + 1] += 1;
         }
         for g in 0..nc {
-            r.offsets[g + 1] += r.offsets[g];
+            r_offsets[g + 1] += r_offsets[g];
         }
-        r.cols.resize(p.cols.len(), 0);
-        r.values.resize(p.cols.len(), 0.0);
-        let mut next = r.offsets.clone();
+        r_cols.resize(p.cols().len(), 0);
+        r_values.resize(p.cols().len(), 0.0);
+        let mut next = r_offsets.clone();
         for i in 0..m {
-            for k in p.offsets[i]..p.offsets[i + 1] {
-                let g = p.cols[k] as usize;
+            for k in p.offsets()[i]..p.offsets()[i + 1] {
+                let g = p.cols()[k] as usize;
                 let dst = next[g];
-                r.cols[dst] = i as u32;
-                r.values[dst] = p.values[k];
+                r_cols[dst] = i as u32;
+                r_values[dst] = p.values()[k];
                 next[g] += 1;
             }
         }
@@ -713,14 +699,14 @@ impl Amg {
             }
         }
         for (d, &i) in self.dense_idx.iter().enumerate() {
-            let row = self.dense_rows.offsets[d]..self.dense_rows.offsets[d + 1];
+            let row = self.dense_rows.offsets()[d]..self.dense_rows.offsets()[d + 1];
             let (mut acc, mut diag) = (r[i], 0.0);
             for k in row {
-                let j = self.dense_rows.cols[k] as usize;
+                let j = self.dense_rows.cols()[k] as usize;
                 if j == i {
-                    diag += self.dense_rows.values[k];
+                    diag += self.dense_rows.values()[k];
                 } else {
-                    acc -= self.dense_rows.values[k] * z[j];
+                    acc -= self.dense_rows.values()[k] * z[j];
                 }
             }
             z[i] = if diag != 0.0 { acc / diag } else { 0.0 };
@@ -866,7 +852,7 @@ fn jacobi(l: &mut Level) {
 fn spgemm(a: &Csr, b: &Csr, c: &mut Csr, marker: &mut Vec<usize>) {
     const BLOCK: usize = 2048;
     let n = a.nrows();
-    c.clear(b.ncols);
+    c.clear(b.ncols());
     if n <= BLOCK {
         spgemm_rows(a, b, 0..n, c, marker);
         return;
@@ -875,7 +861,7 @@ fn spgemm(a: &Csr, b: &Csr, c: &mut Csr, marker: &mut Vec<usize>) {
         .into_par_iter()
         .map(|k| {
             let mut part = Csr::default();
-            part.clear(b.ncols);
+            part.clear(b.ncols());
             let mut mk = Vec::new();
             spgemm_rows(
                 a,
@@ -887,11 +873,12 @@ fn spgemm(a: &Csr, b: &Csr, c: &mut Csr, marker: &mut Vec<usize>) {
             part
         })
         .collect();
+    let (offsets, cols, values) = c.parts_mut();
     for part in &blocks {
-        let base = c.cols.len();
-        c.cols.extend_from_slice(&part.cols);
-        c.values.extend_from_slice(&part.values);
-        c.offsets.extend(part.offsets[1..].iter().map(|o| o + base));
+        let base = cols.len();
+        cols.extend_from_slice(part.cols());
+        values.extend_from_slice(part.values());
+        offsets.extend(part.offsets()[1..].iter().map(|o| o + base));
     }
 }
 
@@ -904,27 +891,28 @@ fn spgemm_rows(
     marker: &mut Vec<usize>,
 ) {
     marker.clear();
-    marker.resize(b.ncols, usize::MAX);
+    marker.resize(b.ncols(), usize::MAX);
+    let (c_offsets, c_cols, c_values) = c.parts_mut();
     for i in rows {
-        let row_start = c.cols.len();
-        for ka in a.offsets[i]..a.offsets[i + 1] {
-            let k = a.cols[ka] as usize;
-            let av = a.values[ka];
-            for kb in b.offsets[k]..b.offsets[k + 1] {
-                let j = b.cols[kb] as usize;
-                let v = av * b.values[kb];
+        let row_start = c_cols.len();
+        for ka in a.offsets()[i]..a.offsets()[i + 1] {
+            let k = a.cols()[ka] as usize;
+            let av = a.values()[ka];
+            for kb in b.offsets()[k]..b.offsets()[k + 1] {
+                let j = b.cols()[kb] as usize;
+                let v = av * b.values()[kb];
                 let pos = marker[j];
                 // Markers left by earlier rows point before this row's start.
                 if pos == usize::MAX || pos < row_start {
-                    marker[j] = c.cols.len();
-                    c.cols.push(j as u32);
-                    c.values.push(v);
+                    marker[j] = c_cols.len();
+                    c_cols.push(j as u32);
+                    c_values.push(v);
                 } else {
-                    c.values[pos] += v;
+                    c_values[pos] += v;
                 }
             }
         }
-        c.offsets.push(c.cols.len());
+        c_offsets.push(c_cols.len());
     }
 }
 
@@ -989,6 +977,17 @@ mod tests {
             .collect();
         let mut amg = Amg::default();
         amg.setup(&a, &inv_diag, false);
+        // Every level's products take the path checked once per setup (the fast path).
+        assert!(
+            amg.depth > 1,
+            "a hierarchy of one level tests no coarse matrices"
+        );
+        for (k, l) in amg.levels[..amg.depth].iter().enumerate() {
+            assert!(
+                l.a.is_sealed() && l.p.is_sealed() && l.r.is_sealed(),
+                "level {k} not sealed after setup"
+            );
+        }
         let (f_off, f_cols, f_vals, _, _) = amg.fine_smoother();
         let mut dropped = 0;
         for i in 0..n {
@@ -1052,12 +1051,7 @@ mod tests {
         let m = 401;
         let lambda: Vec<f64> = (0..m).map(|i| rho * i as f64 / (m - 1) as f64).collect();
         let mut l = Level {
-            a: Csr {
-                offsets: (0..=m).collect(),
-                cols: (0..m as u32).collect(),
-                values: vec![1.0; m],
-                ncols: m,
-            },
+            a: Csr::from_parts((0..=m).collect(), (0..m as u32).collect(), vec![1.0; m], m),
             inv_diag: lambda.clone(),
             rho,
             x: vec![1.0; m],

@@ -1,5 +1,5 @@
 use crate::SolveError;
-use crate::csr::matvec;
+use crate::csr::Pattern;
 use crate::solver::precond::PrecondState;
 use crate::solver::{CsrSystem, Krylov, LinearSolver, Preconditioner, SolveInfo, SolveParams};
 use rayon::prelude::*;
@@ -108,13 +108,15 @@ impl Krylov for BiCgStab {
     ) -> Result<SolveInfo, SolveError> {
         let name = self.name();
         let n = a.n();
+        // The products with A check its columns once, not at every entry.
+        let op = Pattern::new(a.offsets, a.cols, n);
         let setup_seconds = t0.elapsed().as_secs_f64();
         for w in self.work.iter_mut() {
             w.resize(n, 0.0);
         }
         let [r, r0, p, v, s, t, y] = &mut self.work;
         // r = b − A x
-        matvec(a.offsets, a.cols, a.values, x, t);
+        op.matvec(a.values, x, t);
         axpy_into(r, a.rhs, -1.0, t);
         r0.copy_from_slice(r);
         let tol = params.rel_tolerance * bnorm;
@@ -161,7 +163,7 @@ impl Krylov for BiCgStab {
                 .for_each(|(p, (r, v))| *p = r + beta * (*p - omega * v));
             // y = M⁻¹ p, v = A y
             self.state.apply(self.precond, a, p, y);
-            matvec(a.offsets, a.cols, a.values, y, v);
+            op.matvec(a.values, y, v);
             let r0v = dot(r0, v);
             if r0v == 0.0 || !r0v.is_finite() {
                 return Err(SolveError::Breakdown {
@@ -183,7 +185,7 @@ impl Krylov for BiCgStab {
             }
             // y = M⁻¹ s, t = A y
             self.state.apply(self.precond, a, s, y);
-            matvec(a.offsets, a.cols, a.values, y, t);
+            op.matvec(a.values, y, t);
             let tt = dot(t, t);
             if tt == 0.0 || !tt.is_finite() {
                 return Err(SolveError::Breakdown {
