@@ -4,6 +4,7 @@ use crate::projection::{Equation, det_f_stats, first_non_finite, prepare, projec
 use crate::report::{Phase, PhaseTimes};
 use crate::simulation::{Buffers, Engine, engine_context};
 use crate::{Shifting, Simulation, StepError, StepReport, Walls};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sph_core::Dim;
 use sph_core::{ParticleSet, VectorOps};
@@ -171,29 +172,36 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
     let cap = MAX_SHIFT * sh.spacing;
     let nf = e.fluid;
     let free = e.config.free_surface.is_some();
-    for i in 0..nf {
-        let mut dr = b.grad_c[i] * (-sh.coefficient * h * b.u_new[i].length() * dt);
-        // On a free surface only the part tangential to it is kept (Lind et al. 2012,
-        // Sec. 3.3): the normal part of −∇C points out of the fluid and would spread the surface.
-        // Particles below the surface keep the whole shift, which keeps them from running into
-        // the surface layer (whose p = 0 cannot push them back).
-        if free && e.dirichlet[i] {
-            let g = b.grad_c[i];
-            let g2 = g.length_squared();
-            if g2 > 0.0 {
-                dr -= g * (dr.dot(g) / g2);
+    let (grad_c, grad_u) = (&b.grad_c[..nf], &b.grad_u[..nf]);
+    // Each particle on its own: in parallel, and the same bits for any number of threads.
+    b.disp[..nf]
+        .par_iter_mut()
+        .zip(b.u_new[..nf].par_iter_mut())
+        .enumerate()
+        .with_min_len(1024)
+        .for_each(|(i, (disp, u_new))| {
+            let g = grad_c[i];
+            let mut dr = g * (-sh.coefficient * h * u_new.length() * dt);
+            // On a free surface only the part tangential to it is kept (Lind et al. 2012,
+            // Sec. 3.3): the normal part of −∇C points out of the fluid and would spread the
+            // surface. Particles below the surface keep the whole shift, which keeps them from
+            // running into the surface layer (whose p = 0 cannot push them back).
+            if free && e.dirichlet[i] {
+                let g2 = g.length_squared();
+                if g2 > 0.0 {
+                    dr -= g * (dr.dot(g) / g2);
+                }
             }
-        }
-        let len = dr.length();
-        if len > cap {
-            dr *= cap / len;
-        }
-        if let Some(w) = &e.walls {
-            dr = w.limit_shift(x[i], dr);
-        }
-        b.disp[i] += dr;
-        b.u_new[i] += b.grad_u[i] * dr;
-    }
+            let len = dr.length();
+            if len > cap {
+                dr *= cap / len;
+            }
+            if let Some(w) = &e.walls {
+                dr = w.limit_shift(x[i], dr);
+            }
+            *disp += dr;
+            *u_new += grad_u[i] * dr;
+        });
 }
 
 /// Where the projection is evaluated and how positions are advanced.
@@ -472,27 +480,34 @@ fn guard_walls<D: Dim>(
     u_new: &mut [D::Vector],
 ) -> usize {
     let Some(w) = &e.walls else { return 0 };
-    let mut caught = 0;
-    for i in 0..e.fluid {
-        let x = p.positions[i];
-        let y = x + disp[i];
-        let y = e.periodic.map_or(y, |per| per.wrap(y));
-        if w.depth(y) > 0.0 && w.depth(x) == 0.0 {
-            let d = disp[i];
-            let cut = w.limit_shift(x, d);
-            u_new[i] = D::Vector::from_fn(|k| {
-                let (a, b) = (d.get(k), cut.get(k));
-                if a != 0.0 && a != b {
-                    u_new[i].get(k) * (b / a)
-                } else {
-                    u_new[i].get(k)
-                }
-            });
-            disp[i] = cut;
-            caught += 1;
-        }
-    }
-    caught
+    let nf = e.fluid;
+    // Each particle on its own (a count is exact in any order): in parallel.
+    disp[..nf]
+        .par_iter_mut()
+        .zip(u_new[..nf].par_iter_mut())
+        .zip(p.positions[..nf].par_iter())
+        .with_min_len(1024)
+        .map(|((disp, u_new), &x)| {
+            let y = x + *disp;
+            let y = e.periodic.map_or(y, |per| per.wrap(y));
+            if w.depth(y) > 0.0 && w.depth(x) == 0.0 {
+                let d = *disp;
+                let cut = w.limit_shift(x, d);
+                *u_new = D::Vector::from_fn(|k| {
+                    let (a, b) = (d.get(k), cut.get(k));
+                    if a != 0.0 && a != b {
+                        u_new.get(k) * (b / a)
+                    } else {
+                        u_new.get(k)
+                    }
+                });
+                *disp = cut;
+                1
+            } else {
+                0
+            }
+        })
+        .sum()
 }
 
 /// [`prepare`] at the particles' current positions `xⁿ`.

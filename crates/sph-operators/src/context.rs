@@ -129,17 +129,20 @@ impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
         let xi = self.positions[i];
         let (a, b) = (self.neighbors.offsets()[i], self.neighbors.offsets()[i + 1]);
         let indices = self.neighbors.indices();
-        let mut buf = [0.0; PAIR_BLOCK];
         let mut start = a;
         while start < b {
             let end = b.min(start + PAIR_BLOCK);
             let row = &indices[start..end];
+            // Initialised only where used: zeroing it for every row of every pass (a 512-byte
+            // `memset` call) cost more than the pass's use of attached factors.
+            let buf: [f64; PAIR_BLOCK];
             let factors: &[f64] = match self.grad_factors {
                 Some(all) => &all[start..end],
                 None => {
-                    for (s, &j) in buf.iter_mut().zip(row) {
-                        *s = self.kernel.grad_factor(self.pair(xi, j as usize));
-                    }
+                    buf = std::array::from_fn(|k| {
+                        row.get(k)
+                            .map_or(0.0, |&j| self.kernel.grad_factor(self.pair(xi, j as usize)))
+                    });
                     &buf[..row.len()]
                 }
             };

@@ -140,16 +140,22 @@ impl MeanZeroGauge {
     ) -> Result<SolveInfo, SolveError> {
         let n = system.n();
         assert!(gauge_rows <= n && x.len() == n);
-        let diag_mean = (0..gauge_rows)
-            .map(|i| {
+        // The diagonals found in parallel (a search and a cache miss per row), summed in row
+        // order (the same sum for any number of threads).
+        self.colsum.clear();
+        self.colsum.resize(gauge_rows, 0.0);
+        self.colsum
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(i, d)| {
                 let (a, b) = (system.offsets[i], system.offsets[i + 1]);
-                system.cols[a..b]
+                *d = system.cols[a..b]
                     .binary_search(&(i as u32))
                     .map(|k| system.values[a + k].abs())
-                    .unwrap_or(0.0)
-            })
-            .sum::<f64>()
-            / gauge_rows.max(1) as f64;
+                    .unwrap_or(0.0);
+            });
+        let diag_mean = self.colsum.iter().sum::<f64>() / gauge_rows.max(1) as f64;
         let s = if diag_mean > 0.0 { diag_mean } else { 1.0 };
         // The rows of M, each gauge row with the border column appended: row i starts
         // min(i, |G|) places further on (offsets taken from 0, whatever the system's first).
