@@ -94,7 +94,7 @@ where
     for i in 1..=nq {
         out.offsets[i] += out.offsets[i - 1];
     }
-    out.indices.clear();
+    // Every entry is overwritten below: only a longer list zero-fills (its new part).
     out.indices.resize(out.offsets[nq], 0);
     concat(&out.chunks[..nchunks], &mut out.indices);
 }

@@ -2,6 +2,7 @@
 
 use crate::csr::{CsrMatrix, for_each_row_mut};
 use crate::error::PressureError;
+use rayon::prelude::*;
 use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
 use sph_operators::{SphContext, hessian_stencil_eq25_contracted, hessian_stencil_fit, pair_f_of};
@@ -218,6 +219,12 @@ fn fill_rhs(rhs: &mut [f64], dirichlet: &[bool], value: impl Fn(usize) -> f64) {
 }
 
 fn check_finite(matrix: &CsrMatrix, offsets: &[usize], rhs: &[f64]) -> Result<(), PressureError> {
+    // The common case, all finite, checked in parallel; the first culprit (the same for any
+    // number of threads) is then searched for in order.
+    let finite = |v: &[f64]| v.par_iter().with_min_len(1 << 14).all(|x| x.is_finite());
+    if finite(rhs) && finite(&matrix.values) {
+        return Ok(());
+    }
     if let Some(row) = rhs.iter().position(|v| !v.is_finite()) {
         return Err(PressureError::NonFinite {
             what: "right-hand side",

@@ -161,9 +161,12 @@ impl MeanZeroGauge {
         // min(i, |G|) places further on (offsets taken from 0, whatever the system's first).
         // Copied in parallel, row by row.
         let first = system.offsets[0];
-        self.offsets.clear();
+        self.offsets.resize(n + 1, 0);
         self.offsets
-            .extend((0..=n).map(|i| system.offsets[i] - first + i.min(gauge_rows)));
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(4096)
+            .for_each(|(i, o)| *o = system.offsets[i] - first + i.min(gauge_rows));
         let body = self.offsets[n];
         self.cols.resize(body, 0);
         self.values.resize(body, 0.0);
@@ -191,11 +194,13 @@ impl MeanZeroGauge {
                 self.colsum[system.cols[k] as usize] += system.values[k];
             }
         }
-        for (j, c) in self.colsum.iter().enumerate() {
-            let v = c + if j < gauge_rows { s } else { 0.0 };
-            self.cols.push(j as u32);
-            self.values.push(v);
-        }
+        self.cols.extend(0..n as u32);
+        self.values.extend(
+            self.colsum
+                .iter()
+                .enumerate()
+                .map(|(j, c)| c + if j < gauge_rows { s } else { 0.0 }),
+        );
         self.cols.push(n as u32);
         self.values.push(s * gauge_rows as f64);
         self.offsets.push(self.cols.len());

@@ -693,11 +693,14 @@ impl Amg {
             }
         }
         let mean = sum / count.max(1) as f64;
-        for (zi, d) in z.iter_mut().zip(&self.dense) {
-            if !d {
-                *zi -= mean;
-            }
-        }
+        z.par_iter_mut()
+            .zip(self.dense.par_iter())
+            .with_min_len(4096)
+            .for_each(|(zi, d)| {
+                if !d {
+                    *zi -= mean;
+                }
+            });
         for (d, &i) in self.dense_idx.iter().enumerate() {
             let row = self.dense_rows.offsets()[d]..self.dense_rows.offsets()[d + 1];
             let (mut acc, mut diag) = (r[i], 0.0);
