@@ -228,7 +228,10 @@ fn row_dot(values: &[f64], cols: &[u32], x: &[f64]) -> f64 {
     (s[0] + s[1]) + (s[2] + s[3])
 }
 
-/// [`row_dot`] without a bounds check on `x` (the same sums in the same order).
+/// [`row_dot`] without a bounds check on `x` (the same sums in the same order). A copy of its
+/// loop rather than one loop generic over the gather: with the gather passed as a closure the
+/// solve ran 1.2× slower (two one-thread pairs on the 100² cavity), the closure's slice being
+/// reloaded at each entry.
 ///
 /// # Safety
 /// Every entry of `cols` is below `x.len()`.
