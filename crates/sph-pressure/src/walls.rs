@@ -149,11 +149,9 @@ impl MeanZeroGauge {
             .enumerate()
             .with_min_len(1024)
             .for_each(|(i, d)| {
-                let (a, b) = (system.offsets[i], system.offsets[i + 1]);
-                *d = system.cols[a..b]
-                    .binary_search(&(i as u32))
-                    .map(|k| system.values[a + k].abs())
-                    .unwrap_or(0.0);
+                *d = system
+                    .diagonal_position(i)
+                    .map_or(0.0, |k| system.values[k].abs());
             });
         let diag_mean = self.colsum.iter().sum::<f64>() / gauge_rows.max(1) as f64;
         let s = if diag_mean > 0.0 { diag_mean } else { 1.0 };

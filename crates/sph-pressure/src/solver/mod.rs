@@ -65,6 +65,16 @@ impl CsrSystem<'_> {
         self.offsets.len() - 1
     }
 
+    /// Index into `cols`/`values` of row `i`'s diagonal entry, if the row has one (columns
+    /// sorted, so a binary search).
+    pub fn diagonal_position(&self, i: usize) -> Option<usize> {
+        let a = self.offsets[i];
+        self.cols[a..self.offsets[i + 1]]
+            .binary_search(&(i as u32))
+            .ok()
+            .map(|k| a + k)
+    }
+
     /// True relative residual of `x`.
     pub fn rel_residual(&self, x: &[f64], scratch: &mut [f64]) -> f64 {
         crate::csr::matvec(self.offsets, self.cols, self.values, x, scratch);

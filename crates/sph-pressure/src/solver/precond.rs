@@ -88,12 +88,7 @@ impl PrecondState {
             .par_iter_mut()
             .enumerate()
             .with_min_len(4096)
-            .for_each(|(i, pos)| {
-                let row = &a.cols[a.offsets[i]..a.offsets[i + 1]];
-                *pos = row
-                    .binary_search(&(i as u32))
-                    .map_or(usize::MAX, |k| a.offsets[i] + k);
-            });
+            .for_each(|(i, pos)| *pos = a.diagonal_position(i).unwrap_or(usize::MAX));
         if let Some(row) = self.diag_pos.iter().position(|&p| p == usize::MAX) {
             return Err(SolveError::SingularPivot { row, value: 0.0 });
         }
