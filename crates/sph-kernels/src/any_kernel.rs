@@ -80,6 +80,10 @@ impl<D: Dim> Kernel<D> for AnyKernel<D> {
     fn dw_dr(&self, r: f64) -> f64 {
         crate::with_kernel!(self, k => k.dw_dr(r))
     }
+    #[inline(always)]
+    fn grad_factor_at(&self, r: f64) -> f64 {
+        crate::with_kernel!(self, k => k.grad_factor_at(r))
+    }
 }
 
 /// Runs `$body` with `$k` bound to the concrete kernel inside an [`AnyKernel`] reference: the

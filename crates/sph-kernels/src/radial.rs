@@ -13,6 +13,13 @@ pub trait Shape: Copy + Send + Sync + fmt::Debug + 'static {
     fn f(q: f64) -> f64;
     /// `df/dq` for `0 ≤ q < SUPPORT`.
     fn df(q: f64) -> f64;
+    /// The kernel-gradient factor `s = (dW/dr)/r` at `r = q h`, `0 < q < SUPPORT`, given
+    /// `norm = σ_D/h^D` and `1/h`: `s = norm/h · f'(q) / r`. A shape whose `f'(q)/q` has a
+    /// closed form overrides this to skip the division (Wendland C2).
+    #[inline(always)]
+    fn grad_factor(q: f64, r: f64, norm: f64, inv_h: f64) -> f64 {
+        norm * inv_h * Self::df(q) / r
+    }
 }
 
 /// A radial kernel of shape `S` in dimension `D`: holds `h`, `1/h`, the support `SUPPORT·h` and
@@ -81,6 +88,14 @@ impl<D: Dim, S: Shape> Kernel<D> for Radial<D, S> {
             0.0
         } else {
             self.norm * self.inv_h * S::df(r * self.inv_h)
+        }
+    }
+    #[inline(always)]
+    fn grad_factor_at(&self, r: f64) -> f64 {
+        if r > 0.0 && r < self.support {
+            S::grad_factor(r * self.inv_h, r, self.norm, self.inv_h)
+        } else {
+            0.0
         }
     }
 }

@@ -173,6 +173,31 @@ sph_core::dim_tests! {
             assert!((g - x * (k.dw_dr(x.length()) / x.length())).length() < 1e-15);
         }
     }
+
+    fn gradient_factor_equals_the_derivative_over_r<D>() {
+        // `grad_factor_at(r)` is `(dW/dr)/r`: Wendland C2 by its closed form `σ/h^(D+2) ·
+        // (−5)(1 − q/2)³` (no division), the splines by the division itself (bitwise).
+        for h in [0.013, 1.0, 7.5] {
+            for k in kernels::<D>(h) {
+                let rs = k.support_radius();
+                let mut worst: f64 = 0.0;
+                for i in 1..2000 {
+                    let r = rs * i as f64 / 2000.0;
+                    let (got, want) = (k.grad_factor_at(r), k.dw_dr(r) / r);
+                    assert!(got < 0.0, "{k:?}: r = {r}");
+                    if matches!(k, AnyKernel::WendlandC2(_)) {
+                        worst = worst.max(((got - want) / want).abs());
+                    } else {
+                        assert_eq!(got.to_bits(), want.to_bits(), "{k:?}: r = {r}");
+                    }
+                }
+                assert!(worst < 1e-14, "{k:?}: relative difference {worst:e}");
+                for r in [0.0, rs, rs * (1.0 + 1e-12), 2.0 * rs] {
+                    assert_eq!(k.grad_factor_at(r), 0.0, "{k:?}: r = {r}");
+                }
+            }
+        }
+    }
 }
 
 // (|Σ V W − 1|, |Σ V x⊗∇W + I|_max) bounds at h = 1.3 dx: the values measured above × ≤ 1.6.
