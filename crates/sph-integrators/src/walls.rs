@@ -127,8 +127,10 @@ impl<D: Dim> Walls<D> {
 
     /// Number of fluid particles in wall material (each one has crossed a wall).
     pub fn penetrations(&self, positions: &[D::Vector]) -> usize {
+        // A count and (below) a maximum: exact in any order, so in parallel.
         positions[..self.first]
-            .iter()
+            .par_iter()
+            .with_min_len(4096)
             .filter(|x| self.depth(**x) > 0.0)
             .count()
     }
@@ -138,9 +140,10 @@ impl<D: Dim> Walls<D> {
     /// (depth < Δp/2) from one that has passed the wall particles.
     pub fn max_intrusion(&self, positions: &[D::Vector]) -> f64 {
         positions[..self.first]
-            .iter()
+            .par_iter()
+            .with_min_len(4096)
             .map(|x| self.depth(*x))
-            .fold(0.0, f64::max)
+            .reduce(|| 0.0, f64::max)
     }
 
     /// A shift `dr` of the fluid particle at `x`, shortened so that it can bring the particle

@@ -89,7 +89,11 @@ impl PrecondState {
             .enumerate()
             .with_min_len(4096)
             .for_each(|(i, pos)| *pos = a.diagonal_position(i).unwrap_or(usize::MAX));
-        if let Some(row) = self.diag_pos.iter().position(|&p| p == usize::MAX) {
+        if let Some(row) = self
+            .diag_pos
+            .par_iter()
+            .position_first(|&p| p == usize::MAX)
+        {
             return Err(SolveError::SingularPivot { row, value: 0.0 });
         }
         if matches!(kind, Preconditioner::Jacobi | Preconditioner::Amg) {
@@ -102,8 +106,8 @@ impl PrecondState {
                 .for_each(|(inv, &k)| *inv = 1.0 / a.values[k]);
             if let Some(row) = self
                 .inv_diag
-                .iter()
-                .position(|v| *v == 0.0 || !v.is_finite())
+                .par_iter()
+                .position_first(|v| *v == 0.0 || !v.is_finite())
             {
                 let value = a.values[self.diag_pos[row]];
                 return Err(SolveError::SingularPivot { row, value });
