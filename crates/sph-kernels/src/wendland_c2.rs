@@ -33,7 +33,8 @@ impl Shape for Wendland {
     }
     #[inline(always)]
     fn grad_factor(q: f64, _r: f64, norm: f64, inv_h: f64) -> f64 {
-        // (dW/dr)/r = σ_D/h^D · f'(q)/(h r) = σ_D/h^(D+2) · (−5 (1 − q/2)³): no division.
+        // Of Eq. (28)'s kernel: (dW/dr)/r = σ_D/h^D · f'(q)/(h r) = σ_D/h^(D+2) · (−5 (1 − q/2)³),
+        // since r = q h: no division.
         norm * inv_h * inv_h * (-5.0 * (1.0 - 0.5 * q).powi(3))
     }
 }
