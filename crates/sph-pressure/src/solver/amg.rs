@@ -398,7 +398,11 @@ impl Amg {
             // Each entry is written to the next free place and the place advanced only if
             // kept, so no branch depends on the entry; while w < cols.len() (the count
             // above) the write is in bounds. A dropped entry of a non-dense row and column
-            // is lumped into the diagonal (0 is added for the others: the same sum).
+            // is lumped into the diagonal: the entry times 1 is added, times 0 for the others
+            // (the same sum: the diagonal is non-zero, so a signed zero cannot show). A
+            // product, not a choice: the compiler turns `if lump { x } else { 0.0 }` into a
+            // branch, mispredicted on about half of the entries (with it, this filter took
+            // 3.3–3.5 ms per set-up instead of 1.8–2.6 on the 100² cavity late in its run).
             for (&c, &v) in acols.iter().zip(avals) {
                 let j = c as usize;
                 let kept = keep(i, j, v, b);
@@ -408,7 +412,7 @@ impl Amg {
                 }
                 diag = if j == i { w } else { diag };
                 let lump = !kept & !dense[i] & !dense[j];
-                lumped += if lump { v * inv } else { 0.0 };
+                lumped += v * inv * f64::from(u8::from(lump));
                 w += usize::from(kept);
             }
             debug_assert_eq!(w, cols.len());
