@@ -421,13 +421,7 @@ fn check_displacements<D: Dim>(
 ) -> Result<f64, StepError> {
     let nf = e.fluid;
     let h = e.config.h;
-    let (far, max2) = disp[..nf]
-        .iter()
-        .enumerate()
-        .fold((0, 0.0_f64), |(k, m), (i, d)| {
-            let l = d.length_squared();
-            if l > m { (i, l) } else { (k, m) }
-        });
+    let (far, max2) = first_largest(disp[..nf].par_iter().map(|d| d.length_squared()));
     let value = max2.sqrt() / h;
     let limit = e.config.limits.max_displacement;
     if value.is_nan() || value > limit {
@@ -445,15 +439,10 @@ fn check_displacements<D: Dim>(
         });
     }
     if let Some(w) = &e.walls {
-        let mut deepest = (0, 0.0_f64);
-        for (i, (x, d)) in p.positions[..nf].iter().zip(&disp[..nf]).enumerate() {
+        let deepest = first_largest(p.positions[..nf].par_iter().zip(&disp[..nf]).map(|(x, d)| {
             let y = *x + *d;
-            let y = e.periodic.map_or(y, |per| per.wrap(y));
-            let depth = w.depth(y);
-            if depth > deepest.1 {
-                deepest = (i, depth);
-            }
-        }
+            w.depth(e.periodic.map_or(y, |per| per.wrap(y)))
+        }));
         if deepest.1 > w.thickness {
             return Err(StepError::Escaped {
                 step,
@@ -465,6 +454,20 @@ fn check_displacements<D: Dim>(
         }
     }
     Ok(value)
+}
+
+/// The first index holding the largest value above 0 and that value, `(0, 0.0)` if none is
+/// (NaN never counts): a sequential scan's answer, found in parallel — each piece keeps its
+/// first largest, and of two pieces the right one wins only if strictly larger.
+pub(crate) fn first_largest(values: impl IndexedParallelIterator<Item = f64>) -> (usize, f64) {
+    values
+        .enumerate()
+        .with_min_len(1024)
+        .fold(
+            || (0, 0.0_f64),
+            |(k, m), (i, v)| if v > m { (i, v) } else { (k, m) },
+        )
+        .reduce(|| (0, 0.0), |a, b| if b.1 > a.1 { b } else { a })
 }
 
 /// The walls' last line of defence: a fluid particle in the fluid region whose displacement

@@ -421,3 +421,44 @@ fn step_errors_name_initial_indices() {
         e => panic!("{e:?}"),
     }
 }
+
+/// The parallel search for the largest displacement and the deepest intrusion gives the
+/// sequential scan's answer (the first index of the largest value, NaN never counted, `(0, 0)`
+/// when nothing is above 0) on 1, 2 and 3 threads.
+#[test]
+fn first_largest_is_the_sequential_scan() {
+    use rayon::prelude::*;
+    let sequential = |v: &[f64]| {
+        v.iter().enumerate().fold(
+            (0, 0.0_f64),
+            |(k, m), (i, &x)| if x > m { (i, x) } else { (k, m) },
+        )
+    };
+    let mut v: Vec<f64> = (0..5000)
+        .map(|i| ((i * 7919) % 1000) as f64 * 1e-3)
+        .collect();
+    v[1200] = 2.0; // the largest, tied at 3100 and 4999: the first wins
+    v[3100] = 2.0;
+    v[4999] = 2.0;
+    v[2500] = f64::NAN;
+    let zeros = vec![0.0; 3000];
+    let mut only_nan = vec![0.0; 3000];
+    only_nan[1700] = f64::NAN;
+    for threads in 1..=3 {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        for data in [&v, &zeros, &only_nan] {
+            let got = pool.install(|| crate::schemes::first_largest(data.par_iter().copied()));
+            let want = sequential(data);
+            assert_eq!(
+                (got.0, got.1.to_bits()),
+                (want.0, want.1.to_bits()),
+                "{threads} threads"
+            );
+        }
+        let got = pool.install(|| crate::schemes::first_largest(v.par_iter().copied()));
+        assert_eq!(got, (1200, 2.0));
+    }
+}
