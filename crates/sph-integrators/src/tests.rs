@@ -437,9 +437,13 @@ fn first_largest_is_the_sequential_scan() {
     let mut v: Vec<f64> = (0..5000)
         .map(|i| ((i * 7919) % 1000) as f64 * 1e-3)
         .collect();
-    v[1200] = 2.0; // the largest, tied at 3100 and 4999: the first wins
-    v[3100] = 2.0;
-    v[4999] = 2.0;
+    // The largest, tied within one piece of the parallel split (100, 101: a fold keeping the
+    // last largest would answer 101) and across pieces (3100, 4999: a reduction letting the
+    // right piece win a tie would answer one of them): the first wins.
+    for i in [100, 101, 3100, 4999] {
+        v[i] = 2.0;
+    }
+    v[102] = f64::NAN; // right after the largest, in its piece: a NaN that counted would hide it
     v[2500] = f64::NAN;
     let zeros = vec![0.0; 3000];
     let mut only_nan = vec![0.0; 3000];
@@ -459,6 +463,6 @@ fn first_largest_is_the_sequential_scan() {
             );
         }
         let got = pool.install(|| crate::schemes::first_largest(v.par_iter().copied()));
-        assert_eq!(got, (1200, 2.0));
+        assert_eq!(got, (100, 2.0));
     }
 }
