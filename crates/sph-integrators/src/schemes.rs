@@ -361,8 +361,15 @@ fn projection_passes<D: Dim>(
         shift(&sim.engine, bufs, x_eval, sh, dt);
         phases.add(Phase::Shifting, clock);
     }
-    let max_displacement = check_displacements(&sim.engine, p, &sim.buf.disp, dt, step, t)?;
-    let wall_guarded = guard_walls(&sim.engine, p, &mut sim.buf.disp, &mut sim.buf.u_new);
+    let (max_displacement, deepest) =
+        check_displacements(&sim.engine, p, &sim.buf.disp, dt, step, t)?;
+    // The guard acts only on a particle whose end point lies in wall material (depth > 0); the
+    // check has just found the deepest end point, so when it is 0 there is none to scan for.
+    let wall_guarded = if deepest > 0.0 {
+        guard_walls(&sim.engine, p, &mut sim.buf.disp, &mut sim.buf.u_new)
+    } else {
+        0
+    };
     let det_f = if det_f_wanted {
         let clock = Instant::now();
         if rule == PositionRule::Predicted {
@@ -410,7 +417,8 @@ fn projection_passes<D: Dim>(
 
 /// The blow-up checks of a step, before anything is committed: no fluid particle may move more
 /// than [`Limits::max_displacement`](crate::Limits) smoothing lengths, nor end deeper in wall
-/// material than the walls are thick. Returns the largest displacement in smoothing lengths.
+/// material than the walls are thick. Returns the largest displacement in smoothing lengths and
+/// the deepest end point's depth in wall material (0 without walls).
 fn check_displacements<D: Dim>(
     e: &Engine<D>,
     p: &ParticleSet<D>,
@@ -418,7 +426,7 @@ fn check_displacements<D: Dim>(
     dt: f64,
     step: usize,
     t: f64,
-) -> Result<f64, StepError> {
+) -> Result<(f64, f64), StepError> {
     let nf = e.fluid;
     let h = e.config.h;
     let (far, max2) = first_largest(disp[..nf].par_iter().map(|d| d.length_squared()));
@@ -438,6 +446,7 @@ fn check_displacements<D: Dim>(
                 .map_or(0.0, |v| v.nu * dt / (h * h)),
         });
     }
+    let mut deepest_depth = 0.0;
     if let Some(w) = &e.walls {
         let deepest = first_largest(p.positions[..nf].par_iter().zip(&disp[..nf]).map(|(x, d)| {
             let y = *x + *d;
@@ -452,8 +461,9 @@ fn check_displacements<D: Dim>(
                 thickness: w.thickness,
             });
         }
+        deepest_depth = deepest.1;
     }
-    Ok(value)
+    Ok((value, deepest_depth))
 }
 
 /// The first index holding the largest value above 0 and that value, `(0, 0.0)` if none is
