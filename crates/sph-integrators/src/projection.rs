@@ -12,8 +12,8 @@ use sph_kernels::Kernel;
 use sph_neighbors::NeighborSearch;
 use sph_operators::{
     SphContext, correction_matrices, deformation_gradient, divergence, free_surface_indicator,
-    free_surface_scan, grad_factors, grad_factors_and_values, gradient, invariants,
-    velocity_gradient,
+    free_surface_scan, grad_factors, grad_factors_and_values, grad_factors_from_squared_distances,
+    gradient, invariants, velocity_gradient,
 };
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_wall_rows,
@@ -61,16 +61,29 @@ pub(crate) fn prepare<D: Dim>(
     e.search
         .build(x, e.kernel.support_radius())
         .map_err(|source| StepError::Neighbors { step, t, source })?;
-    e.search.query(x, &mut e.neighbors);
+    // The cell grid hands over the squared distance of every pair it keeps (the kernel's
+    // factors are then a stream over them); other searches, and periodic domains, measure the
+    // pairs again.
+    let measured = e
+        .search
+        .query_with_squared_distances(x, &mut e.neighbors, &mut e.grad_factors);
+    let shifting = e.config.effects.shifting.is_some();
     sph_kernels::with_kernel!(&e.kernel, k => {
-        let ctx = SphContext::new(x, &e.volumes, &e.neighbors, k).with_periodic(e.periodic);
-        if e.config.effects.shifting.is_some() {
-            grad_factors_and_values(&ctx, &mut e.grad_factors, &mut e.kernel_values);
+        if measured {
+            let values = shifting.then_some(&mut e.kernel_values);
+            grad_factors_from_squared_distances(k, &mut e.grad_factors, values);
         } else {
-            grad_factors(&ctx, &mut e.grad_factors);
-            e.kernel_values.clear();
+            let ctx = SphContext::new(x, &e.volumes, &e.neighbors, k).with_periodic(e.periodic);
+            if shifting {
+                grad_factors_and_values(&ctx, &mut e.grad_factors, &mut e.kernel_values);
+            } else {
+                grad_factors(&ctx, &mut e.grad_factors);
+            }
         }
     });
+    if !shifting {
+        e.kernel_values.clear();
+    }
     phases.add(Phase::Neighbors, clock);
     let clock = Instant::now();
     for ((v, m), rho) in e.volumes.iter_mut().zip(masses).zip(densities) {

@@ -76,11 +76,10 @@ impl<D: Dim, S: Shape> Kernel<D> for Radial<D, S> {
     }
     #[inline(always)]
     fn w(&self, r: f64) -> f64 {
-        if r >= self.support {
-            0.0
-        } else {
-            self.norm * S::f(r * self.inv_h)
-        }
+        // The polynomial evaluated first and then selected (not a branch around it), so a
+        // loop over pairs can run several at once in vector registers.
+        let w = self.norm * S::f(r * self.inv_h);
+        if r >= self.support { 0.0 } else { w }
     }
     #[inline(always)]
     fn dw_dr(&self, r: f64) -> f64 {
@@ -92,8 +91,11 @@ impl<D: Dim, S: Shape> Kernel<D> for Radial<D, S> {
     }
     #[inline(always)]
     fn grad_factor_at(&self, r: f64) -> f64 {
-        if r > 0.0 && r < self.support {
-            S::grad_factor(r * self.inv_h, r, self.norm, self.inv_h)
+        // Evaluated, then selected (as in `w`); a value computed at r = 0 (a division by zero
+        // in shapes whose factor divides by r) is discarded.
+        let g = S::grad_factor(r * self.inv_h, r, self.norm, self.inv_h);
+        if (r > 0.0) & (r < self.support) {
+            g
         } else {
             0.0
         }

@@ -28,6 +28,24 @@ impl<D: Dim> AnySearch<D> {
             SearchKind::KdTree => AnySearch::KdTree(KdTree::new()),
         }
     }
+
+    /// [`CellGrid::query_with_squared_distances`] where the search offers it (the cell grid
+    /// without periodic axes; `true`), else a plain [`NeighborSearch::query`] leaving `dist`
+    /// untouched (`false`).
+    pub fn query_with_squared_distances(
+        &self,
+        points: &[D::Vector],
+        out: &mut NeighborList,
+        dist: &mut Vec<f64>,
+    ) -> bool {
+        match self {
+            AnySearch::CellGrid(s) => s.query_with_squared_distances(points, out, dist),
+            AnySearch::KdTree(s) => {
+                s.query(points, out);
+                false
+            }
+        }
+    }
 }
 
 impl<D: Dim> NeighborSearch<D> for AnySearch<D> {

@@ -5,7 +5,7 @@
 //! scans `3^(D−1)` such runs: 3 in 2D, 9 in 3D. 2D and 3D share this code; the only difference is
 //! the number of cell axes, a compile-time constant.
 
-use crate::search::{collect_images, fill_rows, validate};
+use crate::search::{collect_images, fill_rows, fill_rows_with_distances, validate};
 use crate::{NeighborError, NeighborList, NeighborSearch};
 use rayon::prelude::*;
 use sph_core::{Dim, Periodic, VectorOps};
@@ -64,6 +64,30 @@ impl<D: Dim> CellGrid<D> {
         &self.sorted_idx
     }
 
+    /// [`NeighborSearch::query`], also writing to `dist` the squared distance
+    /// `|x_j − x_q|²` of every entry of `out` (aligned with [`NeighborList::indices`]): the
+    /// number the search measured to keep the entry, so a pass that needs each pair's distance
+    /// (the kernel's gradient factors) need not gather the positions again. Bitwise the
+    /// square of `(x_q − x_j).length()`. Only without periodic axes, where an entry's distance
+    /// is measured to the query point itself (with them, to one of its images, which may
+    /// differ from the minimum image at round-off): then it returns `false`, leaving `dist`
+    /// untouched after a plain query.
+    pub fn query_with_squared_distances(
+        &self,
+        points: &[D::Vector],
+        out: &mut NeighborList,
+        dist: &mut Vec<f64>,
+    ) -> bool {
+        if self.periodic.is_some() {
+            self.query(points, out);
+            return false;
+        }
+        fill_rows_with_distances(points, out, dist, |q, buf, d| {
+            self.collect::<true>(q, buf, d)
+        });
+        true
+    }
+
     /// True if the grid uses the sparse (occupied cells only) index.
     pub fn is_sparse(&self) -> bool {
         matches!(self.cells, CellIndex::Sparse { .. })
@@ -102,7 +126,10 @@ impl<D: Dim> CellGrid<D> {
         }
     }
 
-    fn collect(&self, q: &D::Vector, buf: &mut Vec<u32>) {
+    /// Appends the points within the radius of `q` to `buf` and, if `DIST`, their squared
+    /// distances `|x_j − q|²` to `dist` (the same entries; untouched otherwise).
+    #[inline(always)]
+    fn collect<const DIST: bool>(&self, q: &D::Vector, buf: &mut Vec<u32>, dist: &mut Vec<f64>) {
         let r2 = self.radius * self.radius;
         let c = self.cell_of(q);
         let x_lo = (c[0].saturating_sub(1)).max(0);
@@ -134,9 +161,20 @@ impl<D: Dim> CellGrid<D> {
                 // `push` under an `if`.
                 let mut end = buf.len();
                 buf.resize(end + ids.len(), 0);
-                for (x, &j) in pts.iter().zip(ids) {
-                    buf[end] = j;
-                    end += usize::from((*x - *q).length_squared() <= r2);
+                if DIST {
+                    dist.resize(end + ids.len(), 0.0);
+                    for (x, &j) in pts.iter().zip(ids) {
+                        let d2 = (*x - *q).length_squared();
+                        buf[end] = j;
+                        dist[end] = d2;
+                        end += usize::from(d2 <= r2);
+                    }
+                    dist.truncate(end);
+                } else {
+                    for (x, &j) in pts.iter().zip(ids) {
+                        buf[end] = j;
+                        end += usize::from((*x - *q).length_squared() <= r2);
+                    }
                 }
                 buf.truncate(end);
             }
@@ -232,7 +270,9 @@ impl<D: Dim> NeighborSearch<D> for CellGrid<D> {
     fn query(&self, points: &[D::Vector], out: &mut NeighborList) {
         let p = self.periodic.as_ref();
         fill_rows(points, out, |q, buf| {
-            collect_images(p, self.radius, q, buf, |q, buf| self.collect(q, buf))
+            collect_images(p, self.radius, q, buf, |q, buf| {
+                self.collect::<false>(q, buf, &mut Vec::new())
+            })
         });
     }
 

@@ -7,8 +7,9 @@
 pub struct NeighborList {
     pub(crate) offsets: Vec<usize>,
     pub(crate) indices: Vec<u32>,
-    /// Per-chunk scratch reused across queries.
-    pub(crate) chunks: Vec<Vec<u32>>,
+    /// Per-chunk scratch reused across queries: the rows' indices and, for a query with
+    /// distances, their squared distances (empty otherwise).
+    pub(crate) chunks: Vec<(Vec<u32>, Vec<f64>)>,
 }
 
 impl NeighborList {

@@ -70,23 +70,55 @@ where
     V: Sync,
     F: Fn(&V, &mut Vec<u32>) + Sync,
 {
+    fill::<false, V, _>(queries, out, &mut Vec::new(), |q, buf, _| collect(q, buf));
+}
+
+/// [`fill_rows`] with `collect(q, buf, dist)` also appending each neighbour's squared distance
+/// to `dist`; the distances are permuted with their rows' sort and concatenated into `dist`,
+/// aligned with `out.indices`.
+pub(crate) fn fill_rows_with_distances<V, F>(
+    queries: &[V],
+    out: &mut NeighborList,
+    dist: &mut Vec<f64>,
+    collect: F,
+) where
+    V: Sync,
+    F: Fn(&V, &mut Vec<u32>, &mut Vec<f64>) + Sync,
+{
+    fill::<true, V, _>(queries, out, dist, collect);
+}
+
+fn fill<const DIST: bool, V, F>(
+    queries: &[V],
+    out: &mut NeighborList,
+    dist: &mut Vec<f64>,
+    collect: F,
+) where
+    V: Sync,
+    F: Fn(&V, &mut Vec<u32>, &mut Vec<f64>) + Sync,
+{
     let nq = queries.len();
     let nchunks = nq.div_ceil(CHUNK);
-    out.chunks.resize_with(nchunks, Vec::new);
+    out.chunks.resize_with(nchunks, Default::default);
     out.offsets.clear();
     out.offsets.resize(nq + 1, 0);
     out.chunks[..nchunks]
         .par_iter_mut()
         .zip(out.offsets[1..].par_chunks_mut(CHUNK))
         .zip(queries.par_chunks(CHUNK))
-        .for_each(|((buf, counts), qs)| {
+        .for_each(|(((buf, dbuf), counts), qs)| {
             buf.clear();
+            dbuf.clear();
             for (q, count) in qs.iter().zip(counts.iter_mut()) {
                 let start = buf.len();
-                collect(q, buf);
+                collect(q, buf, dbuf);
                 // Rows of particles numbered in cell order come out (nearly) sorted.
                 if !buf[start..].is_sorted() {
-                    buf[start..].sort_unstable();
+                    if DIST {
+                        sort_pairs(&mut buf[start..], &mut dbuf[start..]);
+                    } else {
+                        buf[start..].sort_unstable();
+                    }
                 }
                 *count = buf.len() - start;
             }
@@ -96,23 +128,54 @@ where
     }
     // Every entry is overwritten below: only a longer list zero-fills (its new part).
     out.indices.resize(out.offsets[nq], 0);
-    concat(&out.chunks[..nchunks], &mut out.indices);
+    concat(&out.chunks[..nchunks], &mut out.indices, |c| &c.0);
+    if DIST {
+        dist.resize(out.offsets[nq], 0.0);
+        concat(&out.chunks[..nchunks], dist, |c| &c.1);
+    }
 }
 
-/// Copies the chunk buffers back to back into `dst`, splitting the work recursively.
-fn concat(chunks: &[Vec<u32>], dst: &mut [u32]) {
+/// Sorts `keys` ascending and applies the same permutation to `values`: insertion sort, for the
+/// short, nearly sorted rows of a search (a particle that crossed into another cell since the
+/// last renumbering sits a few places from its slot).
+fn sort_pairs(keys: &mut [u32], values: &mut [f64]) {
+    for i in 1..keys.len() {
+        let (k, v) = (keys[i], values[i]);
+        let mut j = i;
+        while j > 0 && keys[j - 1] > k {
+            keys[j] = keys[j - 1];
+            values[j] = values[j - 1];
+            j -= 1;
+        }
+        keys[j] = k;
+        values[j] = v;
+    }
+}
+
+/// Copies the chunk buffers `part(chunk)` back to back into `dst`, splitting the work
+/// recursively.
+fn concat<T, C, P>(chunks: &[C], dst: &mut [T], part: P)
+where
+    T: Copy + Send + Sync,
+    C: Sync,
+    P: Fn(&C) -> &Vec<T> + Sync + Copy,
+{
     if chunks.len() <= 16 {
         let mut at = 0;
         for c in chunks {
+            let c = part(c);
             dst[at..at + c.len()].copy_from_slice(c);
             at += c.len();
         }
         return;
     }
     let mid = chunks.len() / 2;
-    let left: usize = chunks[..mid].iter().map(Vec::len).sum();
+    let left: usize = chunks[..mid].iter().map(|c| part(c).len()).sum();
     let (dl, dr) = dst.split_at_mut(left);
-    rayon::join(|| concat(&chunks[..mid], dl), || concat(&chunks[mid..], dr));
+    rayon::join(
+        || concat(&chunks[..mid], dl, part),
+        || concat(&chunks[mid..], dr, part),
+    );
 }
 
 /// O(n·m) reference search: the oracle the fast searches are tested against. With `periodic`,

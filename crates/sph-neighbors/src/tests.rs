@@ -135,6 +135,64 @@ sph_core::dim_tests! {
         }
     }
 
+    /// The cell grid's query with squared distances gives the plain query's rows, and each
+    /// entry's distance is bitwise `(x_q − x_j).length_squared()` — on a randomly numbered
+    /// cloud, whose rows leave the cells unsorted (counted below) and are sorted with their
+    /// distances — for the self-join and for probe points, on one and three threads. A
+    /// periodic grid and the kd-tree decline (`false`, the distances untouched) and still give
+    /// the plain query's rows.
+    fn squared_distances_are_those_of_the_entries<D>() {
+        let pts = random_cloud::<D>(3000, -1.0, 1.0, 31);
+        let probes = random_cloud::<D>(400, -1.2, 1.2, 32);
+        let r = 0.2;
+        let mut g = CellGrid::<D>::new();
+        g.build(&pts, r).unwrap();
+        // Rows whose indices do not ascend in the grid's scan order (the cell order).
+        let mut slot = vec![0usize; pts.len()];
+        for (s, &i) in g.cell_order().iter().enumerate() {
+            slot[i as usize] = s;
+        }
+        for queries in [&pts[..], &probes[..]] {
+            let mut plain = NeighborList::new();
+            g.query(queries, &mut plain);
+            let mut unsorted = 0;
+            for i in 0..queries.len() {
+                let mut scan = plain.row(i).to_vec();
+                scan.sort_by_key(|&j| slot[j as usize]);
+                unsorted += usize::from(!scan.is_sorted());
+            }
+            assert!(unsorted > queries.len() / 2, "only {unsorted} rows needed sorting");
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let (mut got, mut d2) = (NeighborList::new(), Vec::new());
+                assert!(pool.install(|| g.query_with_squared_distances(queries, &mut got, &mut d2)));
+                assert!(got.same_rows(&plain), "{}: rows differ on {threads} threads", D::NAME);
+                assert_eq!(d2.len(), got.nnz());
+                for i in 0..queries.len() {
+                    let row = got.offsets()[i]..got.offsets()[i + 1];
+                    for (&j, d) in got.indices()[row.clone()].iter().zip(&d2[row]) {
+                        let want = (queries[i] - pts[j as usize]).length_squared();
+                        assert_eq!(d.to_bits(), want.to_bits(), "{}: row {i}, entry {j}", D::NAME);
+                    }
+                }
+            }
+        }
+        let per = Periodic::<D>::new(D::Vector::from_fn(|_| -1.0), D::Vector::from_fn(|_| 1.0), [true, true, D::DIM == 3])
+            .unwrap();
+        let mut periodic = AnySearch::<D>::new(SearchKind::CellGrid);
+        periodic.set_periodic(Some(per));
+        let mut kd = AnySearch::<D>::new(SearchKind::KdTree);
+        for (name, s, want_periodic) in [("periodic grid", &mut periodic, true), ("kd-tree", &mut kd, false)] {
+            s.build(&pts, r).unwrap();
+            let (mut got, mut expect, mut d2) = (NeighborList::new(), NeighborList::new(), vec![5.0]);
+            assert!(!s.query_with_squared_distances(&pts, &mut got, &mut d2), "{name}");
+            assert_eq!(d2, [5.0], "{name}: distances written");
+            let oracle = if want_periodic { Some(&per) } else { None };
+            brute_force::<D>(&pts, &pts, r, oracle, &mut expect);
+            assert!(got.same_rows(&expect), "{name}: rows");
+        }
+    }
+
     fn rebuild_reuses_buffers_and_stays_correct<D>() {
         let mut rng = SplitMix64::new(12);
         let mut pts = random_cloud::<D>(2000, 0.0, 1.0, 11);

@@ -242,6 +242,42 @@ pub fn grad_factors_and_values<D: Dim, K: Kernel<D>>(
     });
 }
 
+/// [`grad_factors`] (and, with `values`, [`grad_factors_and_values`]' kernel values) from the
+/// squared pair distances `r_ij²` the neighbour search measured
+/// ([`CellGrid::query_with_squared_distances`](sph_neighbors::CellGrid::query_with_squared_distances)):
+/// `factors` holds `r_ij²` of every entry on entry and `s_ij = (dW/dr)(r_ij)/r_ij` on exit,
+/// `r_ij = √(r_ij²)`; `values` is resized to the number of entries and filled with `W(r_ij)`.
+/// A stream over the entries, without gathering the positions again: bitwise the numbers of
+/// the passes above when the distances are those of `ctx.pair` (a search without periodic
+/// axes).
+pub fn grad_factors_from_squared_distances<D: Dim, K: Kernel<D>>(
+    kernel: &K,
+    factors: &mut [f64],
+    values: Option<&mut Vec<f64>>,
+) {
+    const BLOCK: usize = 4096;
+    match values {
+        Some(values) => {
+            values.resize(factors.len(), 0.0);
+            factors
+                .par_chunks_mut(BLOCK)
+                .zip(values.par_chunks_mut(BLOCK))
+                .for_each(|(f, w)| {
+                    for (s, w) in f.iter_mut().zip(w) {
+                        let r = s.sqrt();
+                        *s = kernel.grad_factor_at(r);
+                        *w = kernel.w(r);
+                    }
+                });
+        }
+        None => factors.par_chunks_mut(BLOCK).for_each(|f| {
+            for s in f {
+                *s = kernel.grad_factor_at(s.sqrt());
+            }
+        }),
+    }
+}
+
 /// Neighbour-list entries whose kernel-gradient factors [`SphContext::for_each_pair`]
 /// evaluates at a time when no factors are attached.
 pub const PAIR_BLOCK: usize = 64;

@@ -81,8 +81,8 @@ mod test_support;
 mod viscosity;
 
 pub use context::{
-    PAIR_BLOCK, Pair, SphContext, grad_factors, grad_factors_and_values, laplacian_regulariser,
-    pair_f, pair_f_of,
+    PAIR_BLOCK, Pair, SphContext, grad_factors, grad_factors_and_values,
+    grad_factors_from_squared_distances, laplacian_regulariser, pair_f, pair_f_of,
 };
 pub use correction::{CorrectionStats, correction_matrices};
 pub use deformation::{Invariants, deformation_gradient, invariants, velocity_gradient};

@@ -620,9 +620,10 @@ sph_core::dim_tests! {
 
     /// Every operator gives the same bits with the step's shared kernel-gradient factors (and
     /// kernel values) as with its own kernel evaluations (the engine attaches the factors; the operators' other
-    /// tests run without them).
+    /// tests run without them), and the factors and values computed from the cell grid's
+    /// squared distances are bitwise those computed from the positions.
     fn operators_give_the_same_bits_with_shared_grad_factors<D>() {
-        for kind in [KernelKind::WendlandC2, KernelKind::QuinticSpline] {
+        for kind in [KernelKind::WendlandC2, KernelKind::QuinticSpline, KernelKind::CubicSpline] {
             let lat = Lattice::<D>::new(kind, 1.3, 0.2);
             let n = lat.len();
             let lin = Linear::<D>::new(9);
@@ -657,6 +658,21 @@ sph_core::dim_tests! {
             let (mut factors2, mut values) = (Vec::new(), Vec::new());
             grad_factors_and_values(&ctx, &mut factors2, &mut values);
             assert!(factors2 == factors);
+            // The engine's path: the factors (and values) from the squared distances the cell
+            // grid measured, bitwise those of the passes that gather the positions.
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let mut grid = sph_neighbors::CellGrid::<D>::new();
+            sph_neighbors::NeighborSearch::build(&mut grid, &lat.positions, lat.kernel.support_radius())
+                .unwrap();
+            let (mut list, mut squared) = (sph_neighbors::NeighborList::new(), Vec::new());
+            assert!(grid.query_with_squared_distances(&lat.positions, &mut list, &mut squared));
+            assert!(list.same_rows(&lat.neighbors), "{kind:?}: the lists differ");
+            let (mut from_d2, mut values_d2) = (squared.clone(), vec![7.0; 3]);
+            grad_factors_from_squared_distances(&lat.kernel, &mut from_d2, Some(&mut values_d2));
+            assert_eq!(bits(&from_d2), bits(&factors), "{kind:?}: factors from r²");
+            assert_eq!(bits(&values_d2), bits(&values), "{kind:?}: kernel values from r²");
+            grad_factors_from_squared_distances(&lat.kernel, &mut squared, None);
+            assert_eq!(bits(&squared), bits(&factors), "{kind:?}: factors alone from r²");
             let own = run(&ctx);
             let shared = run(&ctx.with_grad_factors(&factors));
             let with_values = run(&ctx.with_grad_factors(&factors).with_kernel_values(&values));
