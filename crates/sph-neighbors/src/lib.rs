@@ -12,6 +12,8 @@
 //!   `3^(D−1)` runs of three x-adjacent cells that are contiguous in memory. For clouds whose
 //!   bounding box would need far more cells than particles it switches to a sorted list of the
 //!   occupied cells (binary search), so memory stays `O(n)`.
+//!   [`CellGrid::query_with_squared_distances`] also hands over each kept pair's squared
+//!   distance, which the search measured anyway (the step's kernel factors are computed from it).
 //! * [`KdTree`]: kiddo's immutable kd-tree, kept as a cross-check and for very irregular clouds.
 //!
 //! Both are parallel (rayon) and deterministic: the output does not depend on the thread count.

@@ -7,9 +7,19 @@
 pub struct NeighborList {
     pub(crate) offsets: Vec<usize>,
     pub(crate) indices: Vec<u32>,
-    /// Per-chunk scratch reused across queries: the rows' indices and, for a query with
-    /// distances, their squared distances (empty otherwise).
-    pub(crate) chunks: Vec<(Vec<u32>, Vec<f64>)>,
+    /// Per-chunk scratch reused across queries.
+    pub(crate) chunks: Vec<Chunk>,
+}
+
+/// One parallel work item's rows while a query fills them, kept between queries.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Chunk {
+    /// The rows' indices, back to back.
+    pub(crate) indices: Vec<u32>,
+    /// Their squared distances, for a query with distances (empty otherwise).
+    pub(crate) distances: Vec<f64>,
+    /// Scratch for sorting a row with its distances.
+    pub(crate) pairs: Vec<(u32, f64)>,
 }
 
 impl NeighborList {

@@ -1,3 +1,4 @@
+use crate::neighbor_list::Chunk;
 use crate::{NeighborError, NeighborList};
 use rayon::prelude::*;
 use sph_core::{Dim, Periodic, VectorOps};
@@ -106,7 +107,12 @@ fn fill<const DIST: bool, V, F>(
         .par_iter_mut()
         .zip(out.offsets[1..].par_chunks_mut(CHUNK))
         .zip(queries.par_chunks(CHUNK))
-        .for_each(|(((buf, dbuf), counts), qs)| {
+        .for_each(|((chunk, counts), qs)| {
+            let Chunk {
+                indices: buf,
+                distances: dbuf,
+                pairs,
+            } = chunk;
             buf.clear();
             dbuf.clear();
             for (q, count) in qs.iter().zip(counts.iter_mut()) {
@@ -115,7 +121,7 @@ fn fill<const DIST: bool, V, F>(
                 // Rows of particles numbered in cell order come out (nearly) sorted.
                 if !buf[start..].is_sorted() {
                     if DIST {
-                        sort_pairs(&mut buf[start..], &mut dbuf[start..]);
+                        sort_pairs(&mut buf[start..], &mut dbuf[start..], pairs);
                     } else {
                         buf[start..].sort_unstable();
                     }
@@ -128,27 +134,24 @@ fn fill<const DIST: bool, V, F>(
     }
     // Every entry is overwritten below: only a longer list zero-fills (its new part).
     out.indices.resize(out.offsets[nq], 0);
-    concat(&out.chunks[..nchunks], &mut out.indices, |c| &c.0);
+    concat(&out.chunks[..nchunks], &mut out.indices, |c| &c.indices);
     if DIST {
         dist.resize(out.offsets[nq], 0.0);
-        concat(&out.chunks[..nchunks], dist, |c| &c.1);
+        concat(&out.chunks[..nchunks], dist, |c| &c.distances);
     }
 }
 
-/// Sorts `keys` ascending and applies the same permutation to `values`: insertion sort, for the
-/// short, nearly sorted rows of a search (a particle that crossed into another cell since the
-/// last renumbering sits a few places from its slot).
-fn sort_pairs(keys: &mut [u32], values: &mut [f64]) {
-    for i in 1..keys.len() {
-        let (k, v) = (keys[i], values[i]);
-        let mut j = i;
-        while j > 0 && keys[j - 1] > k {
-            keys[j] = keys[j - 1];
-            values[j] = values[j - 1];
-            j -= 1;
-        }
-        keys[j] = k;
-        values[j] = v;
+/// Sorts `keys` ascending and applies the same permutation to `values`, through `scratch`
+/// (pairs; kept by the caller, so a warm buffer does not allocate). The keys of one row are
+/// distinct, so the unstable sort gives one order whatever the input; pattern-defeating
+/// quicksort takes the nearly sorted rows of particles numbered in cell order in about linear
+/// time, and any row in `O(n log n)`.
+fn sort_pairs(keys: &mut [u32], values: &mut [f64], scratch: &mut Vec<(u32, f64)>) {
+    scratch.clear();
+    scratch.extend(keys.iter().copied().zip(values.iter().copied()));
+    scratch.sort_unstable_by_key(|p| p.0);
+    for ((k, v), p) in keys.iter_mut().zip(values.iter_mut()).zip(scratch.iter()) {
+        (*k, *v) = *p;
     }
 }
 
