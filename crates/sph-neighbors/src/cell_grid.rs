@@ -158,25 +158,43 @@ impl<D: Dim> CellGrid<D> {
                 // and kept by advancing the end only if it lies within the radius (π/9 ≈ 35 %
                 // of the scanned cells' area in 2D, 4π/81 ≈ 16 % in 3D, in no predictable
                 // pattern, so a branch per candidate mispredicts often). The same rows as a
-                // `push` under an `if`.
-                let mut end = buf.len();
-                buf.resize(end + ids.len(), 0);
+                // `push` under an `if`. Written into the lists' spare capacity: zero-filling
+                // it first (a `resize`) cost a tenth of the neighbour phase.
+                let n = ids.len();
+                buf.reserve(n);
+                let base = buf.len();
+                let mut w = 0;
+                let dbase = dist.len();
                 if DIST {
-                    dist.resize(end + ids.len(), 0.0);
+                    dist.reserve(n);
+                }
+                {
+                    let bs = &mut buf.spare_capacity_mut()[..n];
+                    let ds = if DIST {
+                        &mut dist.spare_capacity_mut()[..n]
+                    } else {
+                        &mut []
+                    };
                     for (x, &j) in pts.iter().zip(ids) {
                         let d2 = (*x - *q).length_squared();
-                        buf[end] = j;
-                        dist[end] = d2;
-                        end += usize::from(d2 <= r2);
-                    }
-                    dist.truncate(end);
-                } else {
-                    for (x, &j) in pts.iter().zip(ids) {
-                        buf[end] = j;
-                        end += usize::from((*x - *q).length_squared() <= r2);
+                        // w ≤ the candidates seen before this one < n: in bounds.
+                        bs[w].write(j);
+                        if DIST {
+                            ds[w].write(d2);
+                        }
+                        w += usize::from(d2 <= r2);
                     }
                 }
-                buf.truncate(end);
+                // SAFETY: every place below `w` of the spare capacities was written — the
+                // place `p` by the candidate that advanced `w` past `p` — and `w ≤ n` places
+                // were reserved; `dist` (only with DIST) is counted from its own length.
+                #[allow(unsafe_code)]
+                unsafe {
+                    buf.set_len(base + w);
+                    if DIST {
+                        dist.set_len(dbase + w);
+                    }
+                }
             }
         }
     }
