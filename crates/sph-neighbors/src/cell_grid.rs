@@ -5,7 +5,7 @@
 //! scans `3^(D−1)` such runs: 3 in 2D, 9 in 3D. 2D and 3D share this code; the only difference is
 //! the number of cell axes, a compile-time constant.
 
-use crate::search::{collect_images, fill_rows, fill_rows_with_distances, validate};
+use crate::search::{collect_images, fill, fill_rows, validate};
 use crate::{NeighborError, NeighborList, NeighborSearch};
 use rayon::prelude::*;
 use sph_core::{Dim, Periodic, VectorOps};
@@ -82,7 +82,7 @@ impl<D: Dim> CellGrid<D> {
             self.query(points, out);
             return false;
         }
-        fill_rows_with_distances(points, out, dist, |q, buf, d| {
+        fill::<true, _, _>(points, out, dist, |q, buf, d| {
             self.collect::<true>(q, buf, d)
         });
         true

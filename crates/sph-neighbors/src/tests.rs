@@ -138,7 +138,8 @@ sph_core::dim_tests! {
     /// The cell grid's query with squared distances gives the plain query's rows, and each
     /// entry's distance is bitwise `(x_q − x_j).length_squared()` — on a randomly numbered
     /// cloud, whose rows leave the cells unsorted (counted below) and are sorted with their
-    /// distances — for the self-join and for probe points, on one and three threads. A
+    /// distances — for the self-join and for probe points, on one and three threads, into new
+    /// buffers and into buffers kept from the previous query. A
     /// periodic grid and the kd-tree decline (`false`, the distances untouched) and still give
     /// the plain query's rows.
     fn squared_distances_are_those_of_the_entries<D>() {
@@ -152,7 +153,9 @@ sph_core::dim_tests! {
         for (s, &i) in g.cell_order().iter().enumerate() {
             slot[i as usize] = s;
         }
-        for queries in [&pts[..], &probes[..]] {
+        // A list and distances kept across the queries (their buffers warm, as the engine's).
+        let (mut warm, mut warm_d2) = (NeighborList::new(), Vec::new());
+        for queries in [&pts[..], &probes[..], &pts[..]] {
             let mut plain = NeighborList::new();
             g.query(queries, &mut plain);
             let mut unsorted = 0;
@@ -175,6 +178,10 @@ sph_core::dim_tests! {
                         assert_eq!(d.to_bits(), want.to_bits(), "{}: row {i}, entry {j}", D::NAME);
                     }
                 }
+                assert!(g.query_with_squared_distances(queries, &mut warm, &mut warm_d2));
+                assert!(warm.same_rows(&got), "{}: a reused list differs", D::NAME);
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&warm_d2), bits(&d2), "{}: reused distances differ", D::NAME);
             }
         }
         let per = Periodic::<D>::new(D::Vector::from_fn(|_| -1.0), D::Vector::from_fn(|_| 1.0), [true, true, D::DIM == 3])
