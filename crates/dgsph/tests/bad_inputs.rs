@@ -995,12 +995,17 @@ fn cases() -> Vec<Case> {
             "dt = 1.0\nt_end = 5.0",
             "blow-up",
         ),
+        // ν = 1e30: the explicit viscous step leaves `Δt ∇u*` of order 1e29 beside the lid
+        // (Δt ν U / dx² = 1e30 in u*), and a DG row's diagonal is a sum of such terms that
+        // should nearly cancel. Rounding decides which of the solve's checks stops it — a row
+        // whose diagonal came out exactly zero, or 2 000 iterations without converging (the
+        // relative residual 7e24); either is the typed pressure-solve error.
         (
             "cavity with Re 1e-30",
             CAVITY,
             "reynolds = 100",
             "reynolds = 1e-30",
-            "did not converge",
+            "pressure solve failed",
         ),
         (
             "tank with viscosity 1e6",

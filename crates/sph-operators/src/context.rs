@@ -44,6 +44,9 @@ pub struct Pair<V> {
     pub x_ij: V,
     /// `∇_i W(x_ij)`.
     pub grad_w: V,
+    /// The kernel's gradient factor `s_ij = W'(r_ij)/r_ij` (`grad_w = s_ij x_ij`; 0 at
+    /// `r = 0`), for passes that need `x_ij·∇W_ij = s_ij r_ij²` without forming it.
+    pub grad_factor: f64,
 }
 
 impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
@@ -155,6 +158,7 @@ impl<'a, D: Dim, K: Kernel<D>> SphContext<'a, D, K> {
                     j,
                     x_ij,
                     grad_w: x_ij * s,
+                    grad_factor: s,
                 });
             }
             start = end;

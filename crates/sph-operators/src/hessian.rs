@@ -57,8 +57,15 @@ pub fn hessian_stencil_eq25<D: Dim, K: Kernel<D>>(
 /// M : C_ij = −V_j F_ij ((d + 2) x_ijᵀ M x_ij / r_ij² − tr M)
 /// ```
 ///
-/// (`M : (x⊗x) = xᵀ M x`, `M : I = tr M`). Equal to contracting the matrices to round-off
-/// (tested, 2D and 3D). Zero-distance pairs are not emitted.
+/// (`M : (x⊗x) = xᵀ M x`, `M : I = tr M`). With `x_ij·∇W_ij = s_ij r_ij²` (`s_ij` the
+/// kernel's gradient factor, [`Pair::grad_factor`](crate::Pair)) the pair costs one division:
+///
+/// ```text
+/// M : C_ij = −V_j s_ij / (r_ij² + η²) · ((d + 2) x_ijᵀ M x_ij − r_ij² tr M)
+/// ```
+///
+/// Equal to contracting the matrices to round-off (tested, 2D and 3D). Zero-distance pairs
+/// are not emitted.
 #[inline]
 pub fn hessian_stencil_eq25_contracted<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
@@ -68,8 +75,17 @@ pub fn hessian_stencil_eq25_contracted<D: Dim, K: Kernel<D>>(
 ) {
     let coefficient = (D::DIM + 2) as f64;
     let trace = m.trace();
-    eq25_pairs(ctx, i, |k, x_ij, r2, c| {
-        emit(k, c * (coefficient * x_ij.dot(*m * x_ij) / r2 - trace));
+    let eta2 = laplacian_regulariser(ctx.kernel.h());
+    ctx.for_each_pair(i, |p| {
+        let r2 = p.x_ij.length_squared();
+        if r2 == 0.0 {
+            return;
+        }
+        let q = -ctx.volumes[p.j] * p.grad_factor / (r2 + eta2);
+        emit(
+            p.k,
+            q * (coefficient * p.x_ij.dot(*m * p.x_ij) - r2 * trace),
+        );
     });
 }
 

@@ -20,29 +20,37 @@ pub fn concentration_gradient<D: Dim, K: Kernel<D>>(
     out: &mut [D::Vector],
 ) {
     assert_eq!(out.len(), ctx.len());
-    let w_dp = ctx.kernel.w(spacing);
+    let inv_w_dp = inverse_w_dp(ctx, spacing);
     gather(out, |i| {
         let mut g = D::Vector::ZERO;
         ctx.for_each_pair(i, |p| {
             if p.j != i {
-                g += concentration_term(ctx, &p, w_dp);
+                g += concentration_term(ctx, &p, inv_w_dp);
             }
         });
         g
     });
 }
 
-/// One pair's term of [`concentration_gradient`] (`W_ij` from [`SphContext::w_of`]).
+/// One pair's term of [`concentration_gradient`] (`W_ij` from [`SphContext::w_of`];
+/// `inv_w_dp` from [`inverse_w_dp`]).
 #[inline(always)]
 fn concentration_term<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     p: &Pair<D::Vector>,
-    w_dp: f64,
+    inv_w_dp: f64,
 ) -> D::Vector {
     const R: f64 = 0.2;
-    let ratio = if w_dp > 0.0 { ctx.w_of(p) / w_dp } else { 0.0 };
+    let ratio = ctx.w_of(p) * inv_w_dp;
     let r2 = ratio * ratio;
     p.grad_w * (ctx.volumes[p.j] * (1.0 + R * r2 * r2))
+}
+
+/// `1/W(Δp)`, or 0 when the kernel vanishes at the spacing (no anti-clumping term then): the
+/// pairs multiply by it instead of each dividing by `W(Δp)`.
+fn inverse_w_dp<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, spacing: f64) -> f64 {
+    let w_dp = ctx.kernel.w(spacing);
+    if w_dp > 0.0 { 1.0 / w_dp } else { 0.0 }
 }
 
 /// What a shifting step needs in one pass over the pairs, each pair's kernel gradient
@@ -60,7 +68,7 @@ pub fn shifting_gradients<D: Dim, K: Kernel<D>>(
     assert_eq!(u.len(), ctx.len());
     assert_eq!(grad_c.len(), ctx.len());
     assert_eq!(grad_u.len(), ctx.len());
-    let w_dp = ctx.kernel.w(spacing);
+    let inv_w_dp = inverse_w_dp(ctx, spacing);
     grad_c
         .par_iter_mut()
         .zip(grad_u.par_iter_mut())
@@ -73,7 +81,7 @@ pub fn shifting_gradients<D: Dim, K: Kernel<D>>(
             ctx.for_each_pair(i, |p| {
                 m += D::Matrix::outer(u[p.j] - ui, p.grad_w * ctx.volumes[p.j]);
                 if p.j != i {
-                    c += concentration_term(ctx, &p, w_dp);
+                    c += concentration_term(ctx, &p, inv_w_dp);
                 }
             });
             *gc = c;

@@ -1,7 +1,7 @@
 //! Laminar viscosity (Morris, Fox & Zhu 1997), the explicit viscous term of the momentum
 //! equation (paper Eq. 1, `∇·(2μD)/ρ` for constant μ and ∇·u = 0).
 
-use crate::context::{SphContext, pair_f_of};
+use crate::context::{SphContext, laplacian_regulariser};
 use sph_core::{Dim, VectorOps};
 use sph_kernels::Kernel;
 
@@ -13,7 +13,9 @@ use sph_kernels::Kernel;
 ///
 /// With constant kinematic viscosity `ν` (μ = ρν) and uniform density this is `ν` times the
 /// Morris Laplacian of each velocity component, i.e. `ν ∇²u`. The result is **added** to `acc`.
-/// Velocities of wall/ghost particles enter through `u` like any other neighbour's.
+/// Velocities of wall/ghost particles enter through `u` like any other neighbour's. Each pair
+/// costs one division: with `x_ij·∇W_ij = s_ij r_ij²` (`s_ij` the kernel's gradient factor),
+/// `m_j ν (ρ_i + ρ_j) s_ij r_ij² / (ρ_i ρ_j (r_ij² + η²))`.
 pub fn viscous_acceleration<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     masses: &[f64],
@@ -26,16 +28,16 @@ pub fn viscous_acceleration<D: Dim, K: Kernel<D>>(
     assert_eq!(acc.len(), ctx.len());
     // Gather: each particle reads its neighbours and writes only its own slot.
     let add = |i: usize| {
-        let h = ctx.kernel.h();
+        let eta2 = laplacian_regulariser(ctx.kernel.h());
         let mut a = D::Vector::ZERO;
         ctx.for_each_pair(i, |p| {
             let j = p.j;
             if j == i {
                 return;
             }
-            let mu_sum = nu * (densities[i] + densities[j]);
-            let c = masses[j] * mu_sum / (densities[i] * densities[j])
-                * pair_f_of::<D>(p.x_ij, p.grad_w, h);
+            let r2 = p.x_ij.length_squared();
+            let c = masses[j] * nu * (densities[i] + densities[j]) * p.grad_factor * r2
+                / (densities[i] * densities[j] * (r2 + eta2));
             a += (u[i] - u[j]) * c;
         });
         a

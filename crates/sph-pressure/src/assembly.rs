@@ -5,7 +5,9 @@ use crate::error::PressureError;
 use rayon::prelude::*;
 use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
-use sph_operators::{SphContext, hessian_stencil_eq25_contracted, hessian_stencil_fit, pair_f_of};
+use sph_operators::{
+    SphContext, hessian_stencil_eq25_contracted, hessian_stencil_fit, laplacian_regulariser,
+};
 
 /// Discrete Hessian used in the DG equation.
 pub use sph_operators::HessianForm as DgHessian;
@@ -48,28 +50,33 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
     assert!(dirichlet.len() == n && rhs.len() == n);
     let nl = ctx.neighbors;
     matrix.resize(nl.nnz());
+    let eta2 = laplacian_regulariser(ctx.kernel.h());
+    let any_dirichlet = dirichlet.iter().any(|d| *d);
     for_each_row_mut(nl.offsets(), &mut matrix.values, &|i, row| {
         let Some((cols, diag)) = begin_row(nl.row(i), i, dirichlet, row) else {
             return;
         };
-        let h = ctx.kernel.h();
         let mut sum = 0.0;
         ctx.for_each_pair(i, |p| {
             let j = p.j;
             if j == i {
                 return;
             }
+            // −8 m_j F_ij / (ρ_i + ρ_j)² with F_ij = s_ij r² / (r² + η²): one division.
             let rho = densities[i] + densities[j];
-            let c = -masses[j] * 8.0 / (rho * rho) * pair_f_of::<D>(p.x_ij, p.grad_w, h);
+            let r2 = p.x_ij.length_squared();
+            let c = -masses[j] * 8.0 * p.grad_factor * r2 / (rho * rho * (r2 + eta2));
             sum += c;
             row[p.k] = -c;
         });
         if let Some(l) = consistent {
             sum += linear_consistent(ctx, i, cols, diag, &l[i], row);
         }
-        for (k, &j) in cols.iter().enumerate() {
-            if dirichlet[j as usize] {
-                row[k] = 0.0;
+        if any_dirichlet {
+            for (k, &j) in cols.iter().enumerate() {
+                if dirichlet[j as usize] {
+                    row[k] = 0.0;
+                }
             }
         }
         row[diag] = sum;
@@ -108,6 +115,8 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
     assert!(dirichlet.len() == n && rhs.len() == n);
     let nl = ctx.neighbors;
     matrix.resize(nl.nnz());
+    // Without a Dirichlet row no column is zeroed: the per-row pass over the columns is skipped.
+    let any_dirichlet = dirichlet.iter().any(|d| *d);
     let fallbacks = std::sync::atomic::AtomicUsize::new(0);
     for_each_row_mut(nl.offsets(), &mut matrix.values, &|i, row| {
         let Some((cols, diag)) = begin_row(nl.row(i), i, dirichlet, row) else {
@@ -137,9 +146,11 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
         if let Some(l) = consistent {
             sum += linear_consistent(ctx, i, cols, diag, &l[i], row);
         }
-        for (k, &j) in cols.iter().enumerate() {
-            if k != diag && dirichlet[j as usize] {
-                row[k] = 0.0;
+        if any_dirichlet {
+            for (k, &j) in cols.iter().enumerate() {
+                if k != diag && dirichlet[j as usize] {
+                    row[k] = 0.0;
+                }
             }
         }
         row[diag] += sum;

@@ -240,7 +240,11 @@ pub(crate) struct Amg {
     dense: Vec<bool>,
     dense_idx: Vec<usize>,
     dense_rows: Csr,
+    /// Each dense row's diagonal entry (0 if it has none).
+    dense_diag: Vec<f64>,
     in_gauge: Vec<bool>,
+    /// How many rows are in the gauge.
+    gauge_count: usize,
     /// Every coupled row of the fine level sums to zero: constants span the null space.
     singular: bool,
     /// The dense rows the coarse levels were built with.
@@ -314,9 +318,16 @@ impl Amg {
         self.dense_rows.clear(n);
         self.in_gauge.clear();
         self.in_gauge.resize(n, false);
+        self.dense_diag.clear();
         for i in (0..n).filter(|&i| self.dense[i]) {
             self.dense_idx.push(i);
             let row = a.offsets[i]..a.offsets[i + 1];
+            self.dense_diag.push(
+                row.clone()
+                    .filter(|&k| a.cols[k] as usize == i)
+                    .map(|k| a.values[k])
+                    .sum(),
+            );
             let (offsets, cols, values) = self.dense_rows.parts_mut();
             cols.extend_from_slice(&a.cols[row.clone()]);
             values.extend_from_slice(&a.values[row]);
@@ -383,6 +394,12 @@ impl Amg {
                     .map(|(&j, &v)| usize::from(keep(i, j as usize, v, b)))
                     .sum();
             });
+        self.gauge_count = self
+            .in_gauge
+            .par_iter()
+            .with_min_len(4096)
+            .filter(|g| **g)
+            .count();
         for i in 0..n {
             offsets[i + 1] += offsets[i];
         }
@@ -687,17 +704,14 @@ impl Amg {
     /// fluid and wall rows alike; without this, the part of the residual incompatible with M
     /// returns as a large constant that the border row then reads) — and each dense row is
     /// then solved exactly for its own unknown,
-    /// `z_λ = (r_λ − Σ_{j≠λ} k_λj z_j) / k_λλ`. Sequential sums: bitwise independent of the
-    /// thread count.
+    /// `z_λ = (r_λ − Σ_{j≠λ} k_λj z_j) / k_λλ`. The sums over all unknowns are taken by
+    /// [`tree_sum`] (in parallel, bitwise independent of the thread count); the dense rows one
+    /// after the other, each reading the unknowns the earlier ones solved for.
     fn couple_dense(&mut self, r: &[f64], z: &mut [f64]) {
-        let (mut sum, mut count) = (0.0, 0usize);
-        for (zi, g) in z.iter().zip(&self.in_gauge) {
-            if *g {
-                sum += zi;
-                count += 1;
-            }
-        }
-        let mean = sum / count.max(1) as f64;
+        let gauge = &self.in_gauge;
+        let zr: &[f64] = z;
+        let sum = tree_sum(0..zr.len(), &|i| if gauge[i] { zr[i] } else { 0.0 });
+        let mean = sum / self.gauge_count.max(1) as f64;
         z.par_iter_mut()
             .zip(self.dense.par_iter())
             .with_min_len(4096)
@@ -708,16 +722,18 @@ impl Amg {
             });
         for (d, &i) in self.dense_idx.iter().enumerate() {
             let row = self.dense_rows.offsets()[d]..self.dense_rows.offsets()[d + 1];
-            let (mut acc, mut diag) = (r[i], 0.0);
-            for k in row {
-                let j = self.dense_rows.cols()[k] as usize;
-                if j == i {
-                    diag += self.dense_rows.values()[k];
-                } else {
-                    acc -= self.dense_rows.values()[k] * z[j];
-                }
-            }
-            z[i] = if diag != 0.0 { acc / diag } else { 0.0 };
+            let (cols, values) = (self.dense_rows.cols(), self.dense_rows.values());
+            let zr: &[f64] = z;
+            let off = tree_sum(row, &|k| {
+                let j = cols[k] as usize;
+                if j == i { 0.0 } else { values[k] * zr[j] }
+            });
+            let diag = self.dense_diag[d];
+            z[i] = if diag != 0.0 {
+                (r[i] - off) / diag
+            } else {
+                0.0
+            };
         }
     }
 
@@ -792,6 +808,36 @@ impl Amg {
             chebyshev(l, POST_DEGREE);
         }
     }
+}
+
+/// `Σ_{k ∈ range} f(k)` by a fixed binary split into 4096-term leaves, each summed in order
+/// with four interleaved partial sums (term `k` into partial `k mod 4`, counted from the
+/// leaf's start): the summation tree depends only on the range, so the result is bitwise
+/// independent of the thread count; the partial sums break the one chain of additions whose
+/// latency bounds a plain sequential sum.
+fn tree_sum(range: std::ops::Range<usize>, f: &(impl Fn(usize) -> f64 + Sync)) -> f64 {
+    const LEAF: usize = 4096;
+    let len = range.end - range.start;
+    if len <= LEAF {
+        let mut s = [0.0; 4];
+        let mut k = range.start;
+        while k + 4 <= range.end {
+            for (l, sl) in s.iter_mut().enumerate() {
+                *sl += f(k + l);
+            }
+            k += 4;
+        }
+        for (l, kk) in (k..range.end).enumerate() {
+            s[l] += f(kk);
+        }
+        return (s[0] + s[1]) + (s[2] + s[3]);
+    }
+    let mid = range.start + (len / 2).div_ceil(LEAF) * LEAF;
+    let (a, b) = rayon::join(
+        || tree_sum(range.start..mid, f),
+        || tree_sum(mid..range.end, f),
+    );
+    a + b
 }
 
 /// Chebyshev smoothing of `Âx = b` (Saad 2003, *Iterative Methods for Sparse Linear Systems*,
@@ -927,6 +973,37 @@ fn spgemm_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `tree_sum` equals the exact sum of every term (integers, exact in any order; the terms
+    /// at `k` are distinct, so a dropped, repeated or misplaced term changes the sum) for
+    /// ranges around the leaf and lane boundaries, with a non-zero start; and on
+    /// floating-point terms gives the same bits on one thread and on three.
+    #[test]
+    fn tree_sum_adds_each_term_once_and_is_thread_count_independent() {
+        for len in [0, 1, 3, 4, 5, 7, 4095, 4096, 4097, 8193, 3 * 4096 + 5] {
+            for start in [0, 13] {
+                let range = start..start + len;
+                let sum = tree_sum(range.clone(), &|k| (k * k % 1009 + k) as f64);
+                let exact: usize = range.map(|k| k * k % 1009 + k).sum();
+                assert_eq!(sum, exact as f64, "len {len}, start {start}");
+            }
+        }
+        let f = |k: usize| ((k as f64) * 0.618_033_988_749).sin() / (1.0 + k as f64);
+        let on = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a thread pool")
+                .install(|| tree_sum(5..20_000, &f))
+        };
+        let (one, three) = (on(1), on(3));
+        assert_eq!(one.to_bits(), three.to_bits());
+        let plain: f64 = (5..20_000).map(f).sum();
+        assert!(
+            (one - plain).abs() <= 1e-12 * plain.abs(),
+            "{one} against {plain}"
+        );
+    }
 
     /// The fine level is `Â = D⁻¹A` filtered as [`FILTER`] says, checked against a plain
     /// reference on a bordered system (a full last row and column, as the gauge builds): each
