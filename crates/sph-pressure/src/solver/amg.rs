@@ -39,6 +39,7 @@
 
 use crate::csr::{OwnedCsr, for_each_row_mut2};
 use crate::solver::CsrSystem;
+use crate::solver::bicgstab::tree_sum;
 use rayon::prelude::*;
 
 /// Fine-level filter: an off-diagonal entry of `Â` below `FILTER` times the largest of its row
@@ -810,36 +811,6 @@ impl Amg {
     }
 }
 
-/// `Σ_{k ∈ range} f(k)` by a fixed binary split into 4096-term leaves, each summed in order
-/// with four interleaved partial sums (term `k` into partial `k mod 4`, counted from the
-/// leaf's start): the summation tree depends only on the range, so the result is bitwise
-/// independent of the thread count; the partial sums break the one chain of additions whose
-/// latency bounds a plain sequential sum.
-fn tree_sum(range: std::ops::Range<usize>, f: &(impl Fn(usize) -> f64 + Sync)) -> f64 {
-    const LEAF: usize = 4096;
-    let len = range.end - range.start;
-    if len <= LEAF {
-        let mut s = [0.0; 4];
-        let mut k = range.start;
-        while k + 4 <= range.end {
-            for (l, sl) in s.iter_mut().enumerate() {
-                *sl += f(k + l);
-            }
-            k += 4;
-        }
-        for (l, kk) in (k..range.end).enumerate() {
-            s[l] += f(kk);
-        }
-        return (s[0] + s[1]) + (s[2] + s[3]);
-    }
-    let mid = range.start + (len / 2).div_ceil(LEAF) * LEAF;
-    let (a, b) = rayon::join(
-        || tree_sum(range.start..mid, f),
-        || tree_sum(mid..range.end, f),
-    );
-    a + b
-}
-
 /// Chebyshev smoothing of `Âx = b` (Saad 2003, *Iterative Methods for Sparse Linear Systems*,
 /// 2nd ed., Algorithm 12.1; as a multigrid smoother: Adams, Brezina, Hu & Tuminaro 2003, J.
 /// Comput. Phys. 188:593) on `[θ − δ, θ + δ]`, `θ = ` [`CHEB_CENTRE`]`·ρ`,
@@ -973,37 +944,6 @@ fn spgemm_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// `tree_sum` equals the exact sum of every term (integers, exact in any order; the terms
-    /// at `k` are distinct, so a dropped, repeated or misplaced term changes the sum) for
-    /// ranges around the leaf and lane boundaries, with a non-zero start; and on
-    /// floating-point terms gives the same bits on one thread and on three.
-    #[test]
-    fn tree_sum_adds_each_term_once_and_is_thread_count_independent() {
-        for len in [0, 1, 3, 4, 5, 7, 4095, 4096, 4097, 8193, 3 * 4096 + 5] {
-            for start in [0, 13] {
-                let range = start..start + len;
-                let sum = tree_sum(range.clone(), &|k| (k * k % 1009 + k) as f64);
-                let exact: usize = range.map(|k| k * k % 1009 + k).sum();
-                assert_eq!(sum, exact as f64, "len {len}, start {start}");
-            }
-        }
-        let f = |k: usize| ((k as f64) * 0.618_033_988_749).sin() / (1.0 + k as f64);
-        let on = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .expect("a thread pool")
-                .install(|| tree_sum(5..20_000, &f))
-        };
-        let (one, three) = (on(1), on(3));
-        assert_eq!(one.to_bits(), three.to_bits());
-        let plain: f64 = (5..20_000).map(f).sum();
-        assert!(
-            (one - plain).abs() <= 1e-12 * plain.abs(),
-            "{one} against {plain}"
-        );
-    }
 
     /// The fine level is `Â = D⁻¹A` filtered as [`FILTER`] says, checked against a plain
     /// reference on a bordered system (a full last row and column, as the gauge builds): each
