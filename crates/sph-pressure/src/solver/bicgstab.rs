@@ -314,10 +314,14 @@ mod tests {
 
     /// `dot` is `tree_sum` of the products, bit for bit, at lengths around the lanes and the
     /// leaves (so the vectorised leaf keeps the tree's order), on one thread and on three.
+    /// (Equal bits here need not catch a wrong association inside a leaf when rounding happens
+    /// to agree; `the_leaf_sums_in_the_documented_order` pins that.)
     #[test]
     fn dot_is_the_tree_sum_of_the_products() {
-        for n in [0, 1, 3, 4, 5, 4095, 4096, 4097, 3 * 4096 + 7, 20_001] {
-            let a: Vec<f64> = (0..n).map(|k| ((k as f64) * 0.37).sin()).collect();
+        for n in [0, 1, 3, 4, 5, 6, 7, 4095, 4096, 4097, 3 * 4096 + 7, 20_001] {
+            let a: Vec<f64> = (0..n)
+                .map(|k| ((k as f64) * 0.37).sin() * 1e8f64.powi((k % 3) as i32))
+                .collect();
             let b: Vec<f64> = (0..n).map(|k| 1.0 / (1.0 + k as f64).sqrt()).collect();
             let tree = tree_sum(0..n, &|k| a[k] * b[k]);
             for threads in [1, 3] {
@@ -329,5 +333,17 @@ mod tests {
                 assert_eq!(d.to_bits(), tree.to_bits(), "n {n}, {threads} threads");
             }
         }
+    }
+
+    /// The leaf's association written out by hand: terms 0 and 4 in partial sum 0, 1 and 5 in
+    /// 1, 2 in 2, 3 in 3, then (s₀ + s₁) + (s₂ + s₃). With 1e16 (whose ulp is 2) a lone 1 added
+    /// to it rounds away (ties to even), so s₀ = 1e16, s₁ = 2, s₂ + s₃ = −1e16 and the sum is
+    /// 2; a remainder term in the wrong partial sum gives 0, a left-to-right combine 3.
+    #[test]
+    fn the_leaf_sums_in_the_documented_order() {
+        let a = [1e16, 1.0, -1e16, 1.0, 1.0, 1.0];
+        let b = [1.0; 6];
+        assert_eq!(dot(&a, &b), 2.0);
+        assert_eq!(tree_sum(0..6, &|k| a[k]), 2.0);
     }
 }
