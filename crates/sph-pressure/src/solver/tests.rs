@@ -135,6 +135,36 @@ sph_core::dim_tests! {
         }
     }
 
+    fn ppe_entries_are_the_cummins_rudman_coefficients<D>() {
+        // Without Dirichlet rows (a closed domain, as the cavity's), each off-diagonal entry is
+        // 8 m_j F_ij / (ρ_i + ρ_j)² (≤ 0; F_ij from its definition, `pair_f`) and the diagonal
+        // their negated sum, at non-uniform masses and densities — the one-division coefficient
+        // against its defining form, which the ρ = 1 Laplacian test cannot tell from others.
+        let fx = Fixture::<D>::jittered(if D::DIM == 2 { 20 } else { 9 }, 0.1);
+        let n = fx.pts.len();
+        let mut rng = SplitMix64::new(8);
+        let masses: Vec<f64> = fx.vols.iter().map(|v| v * rng.uniform(0.7, 1.3)).collect();
+        let rho: Vec<f64> = (0..n).map(|_| rng.uniform(0.8, 1.25)).collect();
+        let (mut m, mut rhs) = (CsrMatrix::default(), vec![0.0; n]);
+        assemble_ppe(&fx.ctx(), &masses, &rho, &vec![0.0; n], 1.0, &vec![false; n], None, &mut m, &mut rhs).unwrap();
+        let nl = &fx.nl;
+        for i in 0..n {
+            let (mut diag, mut sum) = (f64::NAN, 0.0);
+            for (k, &j) in nl.row(i).iter().enumerate() {
+                let (j, a) = (j as usize, m.values[nl.offsets()[i] + k]);
+                if j == i {
+                    diag = a;
+                    continue;
+                }
+                let f = sph_operators::pair_f::<D, _>(&fx.kernel, fx.pts[i] - fx.pts[j]);
+                let want = 8.0 * masses[j] * f / ((rho[i] + rho[j]) * (rho[i] + rho[j]));
+                assert!((a - want).abs() <= 1e-12 * want.abs(), "({i},{j}): {a} against {want}");
+                sum += a;
+            }
+            assert!(diag > 0.0 && (diag + sum).abs() <= 1e-12 * diag, "row {i}: diagonal {diag}, off-diagonal sum {sum}");
+        }
+    }
+
     fn dg_matrix_with_identity_a_is_the_ppe_matrix<D>() {
         // For A = I, cof(A) : H = tr H = Laplacian, so the DG rows equal the PPE rows.
         let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
