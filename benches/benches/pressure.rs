@@ -97,6 +97,7 @@ fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
         cols: nl.indices(),
         values: &m.values,
         rhs: &rhs,
+        border: None,
     };
     let params = SolveParams::default();
     for kind in [
@@ -151,6 +152,7 @@ fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
         cols: nl.indices(),
         values: &closed.values,
         rhs: &rhs,
+        border: None,
     };
     for kind in [SolverKind::BicgstabJacobi, SolverKind::BicgstabAmg] {
         let mut solver = AnySolver::new(kind);

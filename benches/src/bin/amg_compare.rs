@@ -63,6 +63,7 @@ fn main() {
                 cols: nl.indices(),
                 values: &m.values,
                 rhs: &rhs,
+                border: None,
             };
             let name = if closed {
                 "closed (gauge)"

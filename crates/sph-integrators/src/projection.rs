@@ -234,6 +234,7 @@ pub(crate) fn project<D: Dim>(
         cols: e.neighbors.indices(),
         values: &e.matrix.values,
         rhs: &e.rhs,
+        border: None,
     };
     if !e.config.warm_start {
         pressures.fill(0.0);

@@ -1,3 +1,4 @@
+use crate::solver::{Border, CsrSystem};
 use rayon::prelude::*;
 pub(crate) use sph_neighbors::{for_each_row_mut, for_each_row_mut2};
 
@@ -114,6 +115,148 @@ impl<'a> Pattern<'a> {
             y,
         );
     }
+}
+
+/// The products of a solve with its system (a [`CsrSystem`], bordered or not): the body's
+/// columns checked once (as [`Pattern`]), and a border added term for term as the
+/// written-out matrix would sum it (see [`Border`]): the border column's term is its row's
+/// last, the border row a dense row of `m + 1` entries — the same bits, without the copy.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Operator<'a> {
+    pattern: Pattern<'a>,
+    values: &'a [f64],
+    border: Option<Border<'a>>,
+}
+
+impl<'a> Operator<'a> {
+    /// The operator of `a` (its body's columns checked here).
+    pub(crate) fn new(a: &CsrSystem<'a>) -> Self {
+        Self {
+            pattern: Pattern::new(a.offsets, a.cols, a.body_rows()),
+            values: a.values,
+            border: a.border,
+        }
+    }
+
+    /// `y = A x`.
+    #[allow(unsafe_code)]
+    pub(crate) fn matvec(&self, x: &[f64], y: &mut [f64]) {
+        let Some(b) = self.border else {
+            return self.pattern.matvec(self.values, x, y);
+        };
+        let p = &self.pattern;
+        let m = p.offsets.len() - 1;
+        let (body, last) = y.split_at_mut(m);
+        // The border column's term, `column · x_m`, as the written-out row multiplies it.
+        let t = b.column * x[m];
+        let (offsets, cols, values) = (p.offsets, p.cols, self.values);
+        let unchecked = p.in_range && x.len() >= p.bound;
+        rayon::join(
+            || {
+                body.par_iter_mut()
+                    .enumerate()
+                    .with_min_len(ROW_CHUNK)
+                    .for_each(|(i, yi)| {
+                        let (s, e) = (offsets[i], offsets[i + 1]);
+                        let (v, c) = (&values[s..e], &cols[s..e]);
+                        let extra = (i < b.rows).then_some(t);
+                        *yi = if unchecked {
+                            // SAFETY: as in `matvec_checked_once`: every column is below
+                            // `bound` ≤ `x.len()`.
+                            unsafe { row_dot_in_range_then(v, c, x, extra) }
+                        } else {
+                            row_dot_then(v, c, x, extra)
+                        };
+                    });
+            },
+            || last[0] = dense_row_dot(&b.row[..=m], &x[..=m]),
+        );
+    }
+}
+
+/// [`row_dot`] of a row followed by one more term `extra` (already multiplied), summed as
+/// `row_dot` sums the row with that term appended: when the row's length is 3 mod 4 the term
+/// completes the last group of four (lane 3), otherwise it follows the remainder in lane 0.
+/// `None` is `row_dot` itself.
+fn row_dot_then(values: &[f64], cols: &[u32], x: &[f64], extra: Option<f64>) -> f64 {
+    let mut s = [0.0; 4];
+    let (vq, vr) = values.split_at(values.len() / 4 * 4);
+    let (cq, cr) = cols.split_at(vq.len());
+    for (v, c) in vq.chunks_exact(4).zip(cq.chunks_exact(4)) {
+        for l in 0..4 {
+            s[l] += v[l] * x[c[l] as usize];
+        }
+    }
+    let tail: [f64; 3] = std::array::from_fn(|l| vr.get(l).map_or(0.0, |v| v * x[cr[l] as usize]));
+    finish(s, tail, vr.len(), extra)
+}
+
+/// [`row_dot_then`] without a bounds check on `x`.
+///
+/// # Safety
+/// Every entry of `cols` is below `x.len()`.
+#[inline]
+#[allow(unsafe_code)]
+unsafe fn row_dot_in_range_then(
+    values: &[f64],
+    cols: &[u32],
+    x: &[f64],
+    extra: Option<f64>,
+) -> f64 {
+    let mut s = [0.0; 4];
+    let (vq, vr) = values.split_at(values.len() / 4 * 4);
+    let (cq, cr) = cols.split_at(vq.len());
+    for (v, c) in vq.chunks_exact(4).zip(cq.chunks_exact(4)) {
+        for l in 0..4 {
+            // SAFETY: `c[l]` is an entry of `cols` (the caller's guarantee).
+            s[l] += v[l] * unsafe { *x.get_unchecked(c[l] as usize) };
+        }
+    }
+    // SAFETY: as above.
+    let tail: [f64; 3] = std::array::from_fn(|l| {
+        vr.get(l)
+            .map_or(0.0, |v| v * unsafe { *x.get_unchecked(cr[l] as usize) })
+    });
+    finish(s, tail, vr.len(), extra)
+}
+
+/// The lane sums of a row's first `4k` terms, its remaining `len < 4` terms `tail` and
+/// possibly one more term, combined as [`row_dot`] combines a row of `4k + len (+ 1)` terms.
+#[inline(always)]
+fn finish(mut s: [f64; 4], tail: [f64; 3], len: usize, extra: Option<f64>) -> f64 {
+    match extra {
+        Some(e) if len == 3 => {
+            for l in 0..3 {
+                s[l] += tail[l];
+            }
+            s[3] += e;
+        }
+        _ => {
+            for t in &tail[..len] {
+                s[0] += t;
+            }
+            if let Some(e) = extra {
+                s[0] += e;
+            }
+        }
+    }
+    (s[0] + s[1]) + (s[2] + s[3])
+}
+
+/// [`row_dot`] of a dense row (`values[k]` the coefficient of `x[k]`), in the same order.
+fn dense_row_dot(values: &[f64], x: &[f64]) -> f64 {
+    let mut s = [0.0; 4];
+    let (vq, vr) = values.split_at(values.len() / 4 * 4);
+    let (xq, xr) = x[..values.len()].split_at(vq.len());
+    for (v, x) in vq.chunks_exact(4).zip(xq.chunks_exact(4)) {
+        for l in 0..4 {
+            s[l] += v[l] * x[l];
+        }
+    }
+    for (v, x) in vr.iter().zip(xr) {
+        s[0] += v * x;
+    }
+    (s[0] + s[1]) + (s[2] + s[3])
 }
 
 /// An owned CSR matrix (possibly rectangular: `ncols` columns) whose products skip the bounds
@@ -337,5 +480,58 @@ mod tests {
             Pattern::new(&offsets, &cols, n).matvec(&values, &x[..n - 1], &mut vec![0.0; n])
         });
         assert!(short.is_err(), "a short x must panic");
+    }
+
+    /// A row followed by one more term sums, in both the checked and unchecked variant, to the
+    /// bits `row_dot` gives the row with that term appended, for every row length 0..=12 (each
+    /// remainder of the four-way split, the term completing a group or not); without the term
+    /// to `row_dot`'s own; and a dense row to `row_dot` over the columns 0, 1, 2, ….
+    /// The terms span sixteen orders of magnitude, so a term added in another lane or order
+    /// changes the bits.
+    #[test]
+    #[allow(unsafe_code)]
+    fn a_row_with_one_more_term_sums_as_the_appended_row() {
+        let x: Vec<f64> = (0..16)
+            .map(|j| 10f64.powi(j - 8) * (1.0 + 0.1 * j as f64))
+            .collect();
+        for len in 0..=12usize {
+            let cols: Vec<u32> = (0..len).map(|k| ((k * 7 + 3) % 15) as u32).collect();
+            let values: Vec<f64> = (0..len).map(|k| 1.0 / (1.0 + k as f64) - 0.3).collect();
+            let (column, last) = (0.7, 15u32);
+            let extra = column * x[last as usize];
+            let mut vc = values.clone();
+            vc.push(column);
+            let mut cc = cols.clone();
+            cc.push(last);
+            let appended = row_dot(&vc, &cc, &x);
+            assert_eq!(
+                row_dot_then(&values, &cols, &x, Some(extra)).to_bits(),
+                appended.to_bits(),
+                "len {len}"
+            );
+            // SAFETY: every column is below 16 = x.len().
+            let unchecked = unsafe { row_dot_in_range_then(&values, &cols, &x, Some(extra)) };
+            assert_eq!(
+                unchecked.to_bits(),
+                appended.to_bits(),
+                "len {len}, unchecked"
+            );
+            let plain = row_dot(&values, &cols, &x);
+            assert_eq!(
+                row_dot_then(&values, &cols, &x, None).to_bits(),
+                plain.to_bits()
+            );
+            // SAFETY: as above.
+            assert_eq!(
+                unsafe { row_dot_in_range_then(&values, &cols, &x, None) }.to_bits(),
+                plain.to_bits()
+            );
+            let iota: Vec<u32> = (0..len as u32).collect();
+            assert_eq!(
+                dense_row_dot(&values, &x).to_bits(),
+                row_dot(&values, &iota, &x).to_bits(),
+                "dense, len {len}"
+            );
+        }
     }
 }

@@ -43,7 +43,7 @@ pub use assembly::{DgHessian, PressureRhs, assemble_dg, assemble_ppe};
 pub use csr::CsrMatrix;
 pub use error::{PressureError, SolveError};
 pub use solver::{
-    AnySolver, BiCgStab, CsrSystem, GMRES_RESTART, Gmres, LinearSolver, Preconditioner, SolveInfo,
-    SolveParams, SolverKind, SparseLu,
+    AnySolver, BiCgStab, Border, CsrSystem, GMRES_RESTART, Gmres, LinearSolver, Preconditioner,
+    SolveInfo, SolveParams, SolverKind, SparseLu,
 };
 pub use walls::{MeanZeroGauge, assemble_wall_rows};

@@ -1,9 +1,9 @@
 //! Pressure rows of wall (dummy) particles and the gauge of closed domains.
 
 use crate::SolveError;
-use crate::csr::{CsrMatrix, for_each_row_mut, for_each_row_mut2};
+use crate::csr::{CsrMatrix, for_each_row_mut};
 use crate::error::PressureError;
-use crate::solver::{CsrSystem, LinearSolver, SolveInfo, SolveParams};
+use crate::solver::{Border, CsrSystem, LinearSolver, SolveInfo, SolveParams};
 use rayon::prelude::*;
 use sph_core::{Dim, VectorOps};
 use sph_kernels::Kernel;
@@ -114,22 +114,23 @@ pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
 /// regular when the singular `M` has the constants as its null space; `λ = (yᵀb)/(s yᵀ1_G)` is
 /// the part of `b` incompatible with the constants (`yᵀM = 0`), which the border spreads
 /// uniformly over the gauge rows instead of letting it drift the pressure level. No noise and no
-/// diagonal shift is added. The buffers are reused between steps.
+/// diagonal shift is added. The border is passed beside `M` ([`Border`]), so `M` is not
+/// copied; the buffers (the border row, the right-hand side and the unknowns, `n + 1` each)
+/// are reused between steps.
 #[derive(Clone, Debug, Default)]
 pub struct MeanZeroGauge {
-    offsets: Vec<usize>,
-    cols: Vec<u32>,
-    values: Vec<f64>,
+    row: Vec<f64>,
     rhs: Vec<f64>,
     x: Vec<f64>,
-    colsum: Vec<f64>,
+    diag: Vec<f64>,
     /// Multiplier `λ` of the last solve (in units of the right-hand side, i.e. `s·λ`).
     pub last_multiplier: f64,
 }
 
 impl MeanZeroGauge {
-    /// Solves `system` (n unknowns) under the gauge `Σ_{i < gauge_rows} p_i = 0`; the gauge rows
-    /// are the first `gauge_rows` unknowns. `x` holds the warm start and receives the solution.
+    /// Solves `system` (n unknowns, no border of its own) under the gauge
+    /// `Σ_{i < gauge_rows} p_i = 0`; the gauge rows are the first `gauge_rows` unknowns. `x`
+    /// holds the warm start and receives the solution.
     pub fn solve<S: LinearSolver + ?Sized>(
         &mut self,
         solver: &mut S,
@@ -139,12 +140,12 @@ impl MeanZeroGauge {
         params: &SolveParams,
     ) -> Result<SolveInfo, SolveError> {
         let n = system.n();
-        assert!(gauge_rows <= n && x.len() == n);
+        assert!(system.border.is_none() && gauge_rows <= n && x.len() == n);
         // The diagonals found in parallel (a search and a cache miss per row), summed in row
         // order (the same sum for any number of threads).
-        self.colsum.clear();
-        self.colsum.resize(gauge_rows, 0.0);
-        self.colsum
+        self.diag.clear();
+        self.diag.resize(gauge_rows, 0.0);
+        self.diag
             .par_iter_mut()
             .enumerate()
             .with_min_len(1024)
@@ -153,55 +154,22 @@ impl MeanZeroGauge {
                     .diagonal_position(i)
                     .map_or(0.0, |k| system.values[k].abs());
             });
-        let diag_mean = self.colsum.iter().sum::<f64>() / gauge_rows.max(1) as f64;
+        let diag_mean = self.diag.iter().sum::<f64>() / gauge_rows.max(1) as f64;
         let s = if diag_mean > 0.0 { diag_mean } else { 1.0 };
-        // The rows of M, each gauge row with the border column appended: row i starts
-        // min(i, |G|) places further on (offsets taken from 0, whatever the system's first).
-        // Copied in parallel, row by row.
-        let first = system.offsets[0];
-        self.offsets.resize(n + 1, 0);
-        self.offsets
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(4096)
-            .for_each(|(i, o)| *o = system.offsets[i] - first + i.min(gauge_rows));
-        let body = self.offsets[n];
-        self.cols.resize(body, 0);
-        self.values.resize(body, 0.0);
-        for_each_row_mut2(
-            &self.offsets,
-            &mut self.cols,
-            &mut self.values,
-            &|i, cols, vals| {
-                let (a, b) = (system.offsets[i], system.offsets[i + 1]);
-                cols[..b - a].copy_from_slice(&system.cols[a..b]);
-                vals[..b - a].copy_from_slice(&system.values[a..b]);
-                if i < gauge_rows {
-                    cols[b - a] = n as u32;
-                    vals[b - a] = s;
-                }
-            },
-        );
         // Border row: the constraint s·Σ_G p_i = 0 plus the sum of the gauge rows (an
         // equivalent system) so that its diagonal, s·|G|, is non-zero for Jacobi and ILU(0):
         //   Σ_j (s·[j∈G] + Σ_{i∈G} M_ij) p_j + s|G| λ = Σ_{i∈G} b_i.
-        self.colsum.clear();
-        self.colsum.resize(n, 0.0);
+        self.row.clear();
+        self.row.resize(n, 0.0);
         for i in 0..gauge_rows {
             for k in system.offsets[i]..system.offsets[i + 1] {
-                self.colsum[system.cols[k] as usize] += system.values[k];
+                self.row[system.cols[k] as usize] += system.values[k];
             }
         }
-        self.cols.extend(0..n as u32);
-        self.values.extend(
-            self.colsum
-                .iter()
-                .enumerate()
-                .map(|(j, c)| c + if j < gauge_rows { s } else { 0.0 }),
-        );
-        self.cols.push(n as u32);
-        self.values.push(s * gauge_rows as f64);
-        self.offsets.push(self.cols.len());
+        for (j, c) in self.row.iter_mut().enumerate() {
+            *c += if j < gauge_rows { s } else { 0.0 };
+        }
+        self.row.push(s * gauge_rows as f64);
         self.rhs.clear();
         self.rhs.extend_from_slice(system.rhs);
         self.rhs.push(system.rhs[..gauge_rows].iter().sum());
@@ -211,10 +179,13 @@ impl MeanZeroGauge {
         self.x.extend(x.iter().map(|v| v - mean));
         self.x.push(0.0);
         let bordered = CsrSystem {
-            offsets: &self.offsets,
-            cols: &self.cols,
-            values: &self.values,
             rhs: &self.rhs,
+            border: Some(Border {
+                rows: gauge_rows,
+                column: s,
+                row: &self.row,
+            }),
+            ..*system
         };
         let info = solver.solve(&bordered, &mut self.x, params)?;
         x.copy_from_slice(&self.x[..n]);

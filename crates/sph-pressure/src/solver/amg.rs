@@ -255,6 +255,9 @@ pub(crate) struct Amg {
     row_big: Vec<f64>,
     marker: Vec<usize>,
     ap: Csr,
+    /// A bordered system written out, for the borders the fine level does not take as they
+    /// are (see [`Amg::setup`]).
+    written: super::Materialised,
 }
 
 impl Amg {
@@ -265,6 +268,12 @@ impl Amg {
             .iter()
             .map(|l| (l.a.nrows(), l.a.cols().len()))
             .collect()
+    }
+
+    /// Whether a bordered system has ever been written out here (for tests).
+    #[cfg(test)]
+    pub(crate) fn wrote_out(&self) -> bool {
+        !self.written.is_empty()
     }
 
     /// The fine level's smoother as of the last setup (for tests): `Â`'s offsets, columns and
@@ -287,8 +296,24 @@ impl Amg {
     /// full setup fit (same number of unknowns, same dense rows): the V-cycle then smooths with
     /// the new matrix and corrects with the old coarse spaces. Returns whether the whole
     /// hierarchy was built.
+    ///
+    /// A bordered system ([`Border`](super::Border)) is taken as its written-out matrix would
+    /// be, to the bit: its border row is a dense row and the body's rows are read in place.
+    /// A border row that would not count as dense (a system of at most [`COARSE_MAX`]
+    /// unknowns), or a body row that would, is handled by writing the system out first.
     pub(crate) fn setup(&mut self, a: &CsrSystem<'_>, inv_diag: &[f64], reuse: bool) -> bool {
-        let full = self.build(a, inv_diag, reuse);
+        let full = match self.build(a, inv_diag, reuse) {
+            Some(full) => full,
+            None => {
+                let mut written = std::mem::take(&mut self.written);
+                written.fill(a);
+                let Some(full) = self.build(&written.system(a.rhs), inv_diag, reuse) else {
+                    unreachable!("a system without a border is always taken");
+                };
+                self.written = written;
+                full
+            }
+        };
         // The V-cycle's products gather without a check per entry once each matrix's columns
         // have been checked against its width (a matrix the rebuild left unchanged stays sealed).
         for l in &mut self.levels[..self.depth] {
@@ -299,41 +324,73 @@ impl Amg {
         full
     }
 
-    /// [`setup`](Self::setup)'s construction of the hierarchy.
-    fn build(&mut self, a: &CsrSystem<'_>, inv_diag: &[f64], reuse: bool) -> bool {
+    /// Marks the dense rows of `a` in `self.dense`: rows over 4× longer than the mean or full
+    /// (a gauge's border row; SPH neighbour counts vary by about 2× between the bulk and a
+    /// surface), their lengths those of the written-out matrix for a bordered system. Returns
+    /// whether the fine level takes `a` in place: always without a border; with one, when the
+    /// border row is dense and no body row is.
+    fn classify_dense(&mut self, a: &CsrSystem<'_>) -> bool {
+        let n = a.n();
+        let m = a.body_rows();
+        let rows = a.border.map_or(0, |b| b.rows);
+        let border_len = if a.border.is_some() { m + 1 } else { 0 };
+        let nnz = a.offsets[m] - a.offsets[0] + rows + border_len;
+        let mean_len = nnz as f64 / n.max(1) as f64;
+        let is_dense =
+            |len: usize| len as f64 > 4.0 * mean_len + 16.0 || (n > COARSE_MAX && len == n);
+        self.dense.clear();
+        self.dense.extend(
+            (0..m).map(|i| is_dense(a.offsets[i + 1] - a.offsets[i] + usize::from(i < rows))),
+        );
+        if a.border.is_none() {
+            return true;
+        }
+        self.dense.push(is_dense(border_len));
+        self.dense[m] && !self.dense[..m].contains(&true)
+    }
+
+    /// [`setup`](Self::setup)'s construction of the hierarchy; `None` (nothing built) for a
+    /// bordered system the fine level does not take in place (see [`classify_dense`](Self::classify_dense)).
+    fn build(&mut self, a: &CsrSystem<'_>, inv_diag: &[f64], reuse: bool) -> Option<bool> {
         let n = a.n();
         if self.levels.is_empty() {
             self.levels.push(Level::default());
         }
-        // Dense nodes: rows over 4× longer than the mean or full (a gauge's border row; SPH
-        // neighbour counts vary by about 2× between the bulk and a surface). They are decoupled
-        // from the hierarchy: level 0 drops their columns and keeps only their diagonal, so
-        // the multigrid sees the singular block M alone; `apply` restores the coupling.
-        let mean_len = a.cols.len() as f64 / n.max(1) as f64;
-        self.dense.clear();
-        self.dense.extend((0..n).map(|i| {
-            let len = a.offsets[i + 1] - a.offsets[i];
-            len as f64 > 4.0 * mean_len + 16.0 || (n > COARSE_MAX && len == n)
-        }));
+        let m = a.body_rows();
+        let rows = a.border.map_or(0, |b| b.rows);
+        if !self.classify_dense(a) {
+            return None;
+        }
+        // The dense rows' copies and diagonals; the gauge rows (those meeting a dense column).
         self.dense_idx.clear();
         self.dense_rows.clear(n);
-        self.in_gauge.clear();
-        self.in_gauge.resize(n, false);
         self.dense_diag.clear();
         for i in (0..n).filter(|&i| self.dense[i]) {
             self.dense_idx.push(i);
-            let row = a.offsets[i]..a.offsets[i + 1];
-            self.dense_diag.push(
-                row.clone()
-                    .filter(|&k| a.cols[k] as usize == i)
-                    .map(|k| a.values[k])
-                    .sum(),
-            );
             let (offsets, cols, values) = self.dense_rows.parts_mut();
-            cols.extend_from_slice(&a.cols[row.clone()]);
-            values.extend_from_slice(&a.values[row]);
+            match a.border {
+                // The border row (the only dense row of a bordered system): every column.
+                Some(b) if i == m => {
+                    cols.extend(0..=m as u32);
+                    values.extend_from_slice(&b.row[..=m]);
+                    self.dense_diag.push(std::iter::once(b.row[m]).sum());
+                }
+                _ => {
+                    let row = a.offsets[i]..a.offsets[i + 1];
+                    self.dense_diag.push(
+                        row.clone()
+                            .filter(|&k| a.cols[k] as usize == i)
+                            .map(|k| a.values[k])
+                            .sum(),
+                    );
+                    cols.extend_from_slice(&a.cols[row.clone()]);
+                    values.extend_from_slice(&a.values[row]);
+                }
+            }
             offsets.push(cols.len());
         }
+        self.in_gauge.clear();
+        self.in_gauge.resize(n, false);
         // Fine level: Â = D⁻¹ A with the dense columns dropped and the weak entries lumped
         // (see [`FILTER`]). In parallel: each row's kept entries and whether it meets a dense
         // column, the offsets, then each row's columns and values filled in place.
@@ -353,9 +410,17 @@ impl Amg {
         let (offsets, cols, values) = l0.a.parts_mut();
         offsets.resize(n + 1, 0);
         self.row_big.resize(n, 0.0);
-        self.in_gauge
+        if a.border.is_some() {
+            // The border row keeps its diagonal alone; it meets no dense column but its own.
+            (self.in_gauge[m], offsets[m + 1], self.row_big[m]) = (false, 1, 0.0);
+        }
+        self.in_gauge[..m]
             .par_iter_mut()
-            .zip(offsets[1..].par_iter_mut().zip(self.row_big.par_iter_mut()))
+            .zip(
+                offsets[1..=m]
+                    .par_iter_mut()
+                    .zip(self.row_big[..m].par_iter_mut()),
+            )
             .enumerate()
             .with_min_len(1024)
             .for_each(|(i, (g, (c, big)))| {
@@ -387,7 +452,8 @@ impl Amg {
                     }
                 }
                 let b = m[0].max(m[1]).max(m[2].max(m[3]));
-                *g = !dense[i] && hits;
+                // A bordered system's first `rows` rows meet the border's (dense) column.
+                *g = !dense[i] && (hits || i < rows);
                 *big = b;
                 *c = cols
                     .iter()
@@ -408,8 +474,15 @@ impl Amg {
         cols.resize(nnz, 0);
         values.resize(nnz, 0.0);
         let row_big = &self.row_big;
+        let border = a.border;
         for_each_row_mut2(offsets, cols, values, &|i, cols, vals| {
             let (b, inv) = (row_big[i], inv_diag[i]);
+            if let Some(border) = border.filter(|_| i == m) {
+                // The border row: its diagonal alone (what the loop below keeps of a dense
+                // row, with nothing lumped).
+                (cols[0], vals[0]) = (i as u32, border.row[i] * inv);
+                return;
+            }
             let row = a.offsets[i]..a.offsets[i + 1];
             let (acols, avals) = (&a.cols[row.clone()], &a.values[row]);
             let (mut lumped, mut diag, mut w) = (0.0, 0, 0);
@@ -445,7 +518,7 @@ impl Amg {
             && self.built_dense == self.dense_idx
         {
             Self::prepare_level(&mut self.levels[0]);
-            return false;
+            return Some(false);
         }
         // Singular: every row with off-diagonal entries sums to zero (round-off aside); rows
         // without (Dirichlet, dense) have no aggregate and never reach the coarse levels. Only
@@ -495,7 +568,7 @@ impl Amg {
             l.first.resize(m, 0.0);
             l.dir.resize(m, 0.0);
         }
-        true
+        Some(true)
     }
 
     /// Inverse diagonal and smoothing weight of a level.
@@ -992,6 +1065,7 @@ mod tests {
             cols: &cols,
             values: &values,
             rhs: &rhs,
+            border: None,
         };
         let inv_diag: Vec<f64> = (0..n)
             .map(|i| {

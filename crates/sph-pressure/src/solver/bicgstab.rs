@@ -1,5 +1,5 @@
 use crate::SolveError;
-use crate::csr::Pattern;
+use crate::csr::Operator;
 use crate::solver::precond::PrecondState;
 use crate::solver::{CsrSystem, Krylov, LinearSolver, Preconditioner, SolveInfo, SolveParams};
 use rayon::prelude::*;
@@ -22,6 +22,12 @@ impl BiCgStab {
     #[cfg(test)]
     pub(crate) fn amg_shape(&self) -> Vec<(usize, usize)> {
         self.state.amg_shape()
+    }
+
+    /// Whether AMG has ever written a bordered system out (rather than taking it in place).
+    #[cfg(test)]
+    pub(crate) fn amg_wrote_out(&self) -> bool {
+        self.state.amg_wrote_out()
     }
 
     /// Whether the last solve used a kept AMG hierarchy.
@@ -151,14 +157,14 @@ impl Krylov for BiCgStab {
         let name = self.name();
         let n = a.n();
         // The products with A check its columns once, not at every entry.
-        let op = Pattern::new(a.offsets, a.cols, n);
+        let op = Operator::new(a);
         let setup_seconds = t0.elapsed().as_secs_f64();
         for w in self.work.iter_mut() {
             w.resize(n, 0.0);
         }
         let [r, r0, p, v, s, t, y] = &mut self.work;
         // r = b − A x
-        op.matvec(a.values, x, t);
+        op.matvec(x, t);
         axpy_into(r, a.rhs, -1.0, t);
         r0.copy_from_slice(r);
         let tol = params.rel_tolerance * bnorm;
@@ -205,7 +211,7 @@ impl Krylov for BiCgStab {
                 .for_each(|(p, (r, v))| *p = r + beta * (*p - omega * v));
             // y = M⁻¹ p, v = A y
             self.state.apply(self.precond, a, p, y);
-            op.matvec(a.values, y, v);
+            op.matvec(y, v);
             let r0v = dot(r0, v);
             if r0v == 0.0 || !r0v.is_finite() {
                 return Err(SolveError::Breakdown {
@@ -227,7 +233,7 @@ impl Krylov for BiCgStab {
             }
             // y = M⁻¹ s, t = A y
             self.state.apply(self.precond, a, s, y);
-            op.matvec(a.values, y, t);
+            op.matvec(y, t);
             let tt = dot(t, t);
             if tt == 0.0 || !tt.is_finite() {
                 return Err(SolveError::Breakdown {

@@ -21,6 +21,14 @@ impl LinearSolver for SparseLu {
         _params: &SolveParams,
     ) -> Result<SolveInfo, SolveError> {
         let t0 = Instant::now();
+        // The factorisation needs the matrix itself: a border is written out.
+        let mut written = super::Materialised::default();
+        let a = if a.border.is_some() {
+            written.fill(a);
+            &written.system(a.rhs)
+        } else {
+            a
+        };
         let n = a.n();
         let cols: Vec<usize> = a.cols.iter().map(|&c| c as usize).collect();
         let symbolic = SymbolicSparseRowMat::new_checked(n, n, a.offsets.to_vec(), None, cols);

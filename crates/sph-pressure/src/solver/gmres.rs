@@ -1,5 +1,5 @@
 use crate::SolveError;
-use crate::csr::Pattern;
+use crate::csr::Operator;
 use crate::solver::bicgstab::{axpy_into, dot};
 use crate::solver::precond::PrecondState;
 use crate::solver::{CsrSystem, Krylov, LinearSolver, Preconditioner, SolveInfo, SolveParams};
@@ -105,7 +105,7 @@ impl Krylov for Gmres {
         let name = self.name();
         let (n, m, kind) = (a.n(), self.restart, self.precond);
         // The products with A check its columns once, not at every entry.
-        let op = Pattern::new(a.offsets, a.cols, n);
+        let op = Operator::new(a);
         let setup_seconds = t0.elapsed().as_secs_f64();
         self.basis.resize((m + 1) * n, 0.0);
         self.h.resize((m + 1) * m, 0.0);
@@ -125,7 +125,7 @@ impl Krylov for Gmres {
         let mut iterations = 0;
         loop {
             // The true residual r = b − A x starts every cycle and decides convergence.
-            op.matvec(a.values, x, &mut self.z);
+            op.matvec(x, &mut self.z);
             axpy_into(&mut self.r, a.rhs, -1.0, &self.z);
             let beta = dot(&self.r, &self.r).sqrt();
             if !beta.is_finite() {
@@ -162,7 +162,7 @@ impl Krylov for Gmres {
                 let (done, next) = self.basis.split_at_mut((k + 1) * n);
                 let w = &mut next[..n];
                 self.state.apply(kind, a, &done[k * n..], &mut self.z);
-                op.matvec(a.values, &self.z, w);
+                op.matvec(&self.z, w);
                 // Modified Gram–Schmidt: h_ik = (w, v_i), w −= h_ik v_i.
                 let col = &mut self.h[k * (m + 1)..(k + 1) * (m + 1)];
                 for (i, hik) in col.iter_mut().enumerate().take(k + 1) {

@@ -13,6 +13,7 @@ pub use precond::Preconditioner;
 
 use crate::SolveError;
 use precond::PrecondState;
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Stopping criteria of iterative solvers.
@@ -46,27 +47,58 @@ pub struct SolveInfo {
     pub setup_seconds: f64,
 }
 
-/// A square system `A x = b` with `A` in CSR form (`offsets`, sorted `cols`, `values`).
+/// A square system `A x = b` with `A` in CSR form (`offsets`, sorted `cols`, `values`),
+/// optionally bordered by one more unknown (see [`Border`]).
 #[derive(Clone, Copy, Debug)]
 pub struct CsrSystem<'a> {
-    /// Row offsets (`n + 1`).
+    /// Row offsets (`n_body + 1`; they need not start at 0).
     pub offsets: &'a [usize],
     /// Column indices, sorted within each row.
     pub cols: &'a [u32],
     /// Values aligned with `cols`.
     pub values: &'a [f64],
-    /// Right-hand side (`n`).
+    /// Right-hand side (`n`, the border's entry last).
     pub rhs: &'a [f64],
+    /// The border, if any: one more unknown and row beside the CSR body, kept out of it so
+    /// that a gauge does not copy the matrix (see [`MeanZeroGauge`](crate::MeanZeroGauge)).
+    pub border: Option<Border<'a>>,
+}
+
+/// A border of a [`CsrSystem`] whose CSR body `M` has `m` rows: unknown `m` (the last) enters
+/// each of the first `rows` rows with coefficient `column`, and row `m` is `row` (`m + 1`
+/// values: the coefficients of unknowns `0 … m − 1`, then of unknown `m`):
+///
+/// ```text
+/// [ M          column·1_rows ] [p]   [b_body]
+/// [ row[..m]   row[m]        ] [λ] = [b_m   ]
+/// ```
+///
+/// The bordered system is the CSR matrix whose row `i < rows` is `M`'s row followed by the
+/// entry `(m, column)` and whose row `m` holds every column; solvers treat it so to the last
+/// bit (the products sum each row's terms in that matrix's order), without building it.
+#[derive(Clone, Copy, Debug)]
+pub struct Border<'a> {
+    /// Rows of the body coupled to the border's unknown (the first `rows`).
+    pub rows: usize,
+    /// Their coefficient of the border's unknown.
+    pub column: f64,
+    /// The border row: `m + 1` coefficients, the border unknown's own last.
+    pub row: &'a [f64],
 }
 
 impl CsrSystem<'_> {
-    /// Number of unknowns.
+    /// Number of unknowns (the body's rows, plus one with a border).
     pub fn n(&self) -> usize {
+        self.body_rows() + usize::from(self.border.is_some())
+    }
+
+    /// Rows of the CSR body.
+    pub fn body_rows(&self) -> usize {
         self.offsets.len() - 1
     }
 
-    /// Index into `cols`/`values` of row `i`'s diagonal entry, if the row has one (columns
-    /// sorted, so a binary search).
+    /// Index into `cols`/`values` of body row `i`'s diagonal entry, if the row has one
+    /// (columns sorted, so a binary search).
     pub fn diagonal_position(&self, i: usize) -> Option<usize> {
         let a = self.offsets[i];
         self.cols[a..self.offsets[i + 1]]
@@ -75,9 +107,22 @@ impl CsrSystem<'_> {
             .map(|k| a + k)
     }
 
+    /// Row `i`'s diagonal entry, if it has one (the border row always has).
+    pub fn diagonal(&self, i: usize) -> Option<f64> {
+        match self.border {
+            Some(b) if i == self.body_rows() => Some(b.row[i]),
+            _ => self.diagonal_position(i).map(|k| self.values[k]),
+        }
+    }
+
+    /// `y = A x` (the border included).
+    pub fn matvec(&self, x: &[f64], y: &mut [f64]) {
+        crate::csr::Operator::new(self).matvec(x, y);
+    }
+
     /// True relative residual of `x`.
     pub fn rel_residual(&self, x: &[f64], scratch: &mut [f64]) -> f64 {
-        crate::csr::matvec(self.offsets, self.cols, self.values, x, scratch);
+        self.matvec(x, scratch);
         let r: f64 = scratch
             .iter()
             .zip(self.rhs)
@@ -85,6 +130,71 @@ impl CsrSystem<'_> {
             .sum();
         let b: f64 = self.rhs.iter().map(|b| b * b).sum();
         if b == 0.0 { r.sqrt() } else { (r / b).sqrt() }
+    }
+}
+
+/// A bordered system written out as one CSR matrix (see [`Border`]), for the solvers that
+/// factorise the matrix itself (ILU(0), sparse LU) and for tests. Buffers kept between uses.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Materialised {
+    offsets: Vec<usize>,
+    cols: Vec<u32>,
+    values: Vec<f64>,
+}
+
+impl Materialised {
+    /// Writes `a` (bordered or not) out as one CSR matrix with offsets from 0.
+    pub(crate) fn fill(&mut self, a: &CsrSystem<'_>) {
+        let m = a.body_rows();
+        let (rows, column) = a.border.map_or((0, 0.0), |b| (b.rows, b.column));
+        // Body row i starts min(i, rows) places further on: the border column is appended to
+        // each of the first `rows` rows. Copied in parallel, row by row.
+        let first = a.offsets[0];
+        self.offsets.resize(m + 1, 0);
+        self.offsets
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(4096)
+            .for_each(|(i, o)| *o = a.offsets[i] - first + i.min(rows));
+        let body = self.offsets[m];
+        self.cols.resize(body, 0);
+        self.values.resize(body, 0.0);
+        crate::csr::for_each_row_mut2(
+            &self.offsets,
+            &mut self.cols,
+            &mut self.values,
+            &|i, cols, vals| {
+                let (s, e) = (a.offsets[i], a.offsets[i + 1]);
+                cols[..e - s].copy_from_slice(&a.cols[s..e]);
+                vals[..e - s].copy_from_slice(&a.values[s..e]);
+                if i < rows {
+                    cols[e - s] = m as u32;
+                    vals[e - s] = column;
+                }
+            },
+        );
+        if let Some(b) = a.border {
+            self.cols.extend(0..=m as u32);
+            self.values.extend_from_slice(&b.row[..=m]);
+            self.offsets.push(self.cols.len());
+        }
+    }
+
+    /// Whether nothing has been written yet.
+    #[cfg(test)]
+    pub(crate) fn is_empty(&self) -> bool {
+        self.offsets.is_empty()
+    }
+
+    /// The written-out system, with `rhs`.
+    pub(crate) fn system<'a>(&'a self, rhs: &'a [f64]) -> CsrSystem<'a> {
+        CsrSystem {
+            offsets: &self.offsets,
+            cols: &self.cols,
+            values: &self.values,
+            rhs,
+            border: None,
+        }
     }
 }
 
@@ -137,6 +247,14 @@ pub(crate) fn krylov_solve<K: Krylov>(
     x: &mut [f64],
     params: &SolveParams,
 ) -> Result<SolveInfo, SolveError> {
+    if a.border.is_some() && k.precond() == Preconditioner::Ilu0 {
+        // ILU(0) factorises the matrix itself: the border is written out.
+        let mut m = std::mem::take(&mut k.parts().0.materialised);
+        m.fill(a);
+        let result = krylov_solve(k, &m.system(a.rhs), x, params);
+        k.parts().0.materialised = m;
+        return result;
+    }
     let t0 = Instant::now();
     assert_eq!(x.len(), a.n());
     let bnorm = bicgstab::dot(a.rhs, a.rhs).sqrt();

@@ -34,6 +34,8 @@ pub(crate) struct PrecondState {
     amg_last_iterations: usize,
     amg_valid: bool,
     amg_fresh: bool,
+    /// A bordered system written out for ILU(0) (see `krylov_solve`).
+    pub(crate) materialised: super::Materialised,
 }
 
 /// Solves for which one AMG hierarchy is kept at most. Between full setups only the fine level
@@ -50,6 +52,11 @@ impl PrecondState {
     #[cfg(test)]
     pub(crate) fn amg_shape(&self) -> Vec<(usize, usize)> {
         self.amg.shape()
+    }
+
+    #[cfg(test)]
+    pub(crate) fn amg_wrote_out(&self) -> bool {
+        self.amg.wrote_out()
     }
 
     /// Forgets the AMG hierarchy: the next setup builds it whole.
@@ -81,37 +88,31 @@ impl PrecondState {
         reuse: bool,
     ) -> Result<(), SolveError> {
         let n = a.n();
-        // In parallel; a missing or bad diagonal is marked and the first such row reported, as
-        // a sequential loop would.
-        self.diag_pos.resize(n, 0);
-        self.diag_pos
+        // Jacobi's M⁻¹ and AMG's row scaling, in parallel; a missing (taken as 0) or bad
+        // diagonal is marked and the first such row reported, as a sequential loop would.
+        self.inv_diag.resize(n, 0.0);
+        self.inv_diag
             .par_iter_mut()
             .enumerate()
             .with_min_len(4096)
-            .for_each(|(i, pos)| *pos = a.diagonal_position(i).unwrap_or(usize::MAX));
+            .for_each(|(i, inv)| *inv = 1.0 / a.diagonal(i).unwrap_or(0.0));
         if let Some(row) = self
-            .diag_pos
+            .inv_diag
             .par_iter()
-            .position_first(|&p| p == usize::MAX)
+            .position_first(|v| *v == 0.0 || !v.is_finite())
         {
-            return Err(SolveError::SingularPivot { row, value: 0.0 });
+            let value = a.diagonal(row).unwrap_or(0.0);
+            return Err(SolveError::SingularPivot { row, value });
         }
-        if matches!(kind, Preconditioner::Jacobi | Preconditioner::Amg) {
-            // Jacobi's M⁻¹, and AMG's row scaling.
-            self.inv_diag.resize(n, 0.0);
-            self.inv_diag
+        if kind == Preconditioner::Ilu0 {
+            // A bordered system reaches ILU(0) written out (`krylov_solve`).
+            debug_assert!(a.border.is_none(), "ILU(0) factorises a CSR matrix");
+            self.diag_pos.resize(n, 0);
+            self.diag_pos
                 .par_iter_mut()
-                .zip(self.diag_pos.par_iter())
+                .enumerate()
                 .with_min_len(4096)
-                .for_each(|(inv, &k)| *inv = 1.0 / a.values[k]);
-            if let Some(row) = self
-                .inv_diag
-                .par_iter()
-                .position_first(|v| *v == 0.0 || !v.is_finite())
-            {
-                let value = a.values[self.diag_pos[row]];
-                return Err(SolveError::SingularPivot { row, value });
-            }
+                .for_each(|(i, pos)| *pos = a.diagonal_position(i).unwrap_or(usize::MAX));
         }
         match kind {
             Preconditioner::Jacobi => {}
