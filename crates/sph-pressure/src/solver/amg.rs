@@ -326,7 +326,10 @@ impl Amg {
 
     /// Marks the dense rows of `a` in `self.dense`: rows over 4× longer than the mean or full
     /// (a gauge's border row; SPH neighbour counts vary by about 2× between the bulk and a
-    /// surface), their lengths those of the written-out matrix for a bordered system. Returns
+    /// surface), their lengths those of the written-out matrix for a bordered system. Dense
+    /// rows are decoupled from the hierarchy: level 0 drops their columns and keeps only their
+    /// diagonal, so the multigrid sees the singular block M alone; `apply` restores the
+    /// coupling. Returns
     /// whether the fine level takes `a` in place: always without a border; with one, when the
     /// border row is dense and no body row is.
     fn classify_dense(&mut self, a: &CsrSystem<'_>) -> bool {
