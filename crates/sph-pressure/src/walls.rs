@@ -166,8 +166,8 @@ impl MeanZeroGauge {
                 self.row[system.cols[k] as usize] += system.values[k];
             }
         }
-        for (j, c) in self.row.iter_mut().enumerate() {
-            *c += if j < gauge_rows { s } else { 0.0 };
+        for c in &mut self.row[..gauge_rows] {
+            *c += s;
         }
         self.row.push(s * gauge_rows as f64);
         self.rhs.clear();

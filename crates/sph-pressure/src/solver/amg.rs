@@ -376,7 +376,7 @@ impl Amg {
                 Some(b) if i == m => {
                     cols.extend(0..=m as u32);
                     values.extend_from_slice(&b.row[..=m]);
-                    self.dense_diag.push(std::iter::once(b.row[m]).sum());
+                    self.dense_diag.push(b.row[m]);
                 }
                 _ => {
                     let row = a.offsets[i]..a.offsets[i + 1];
