@@ -393,6 +393,15 @@ fn projection_passes<D: Dim>(
         None
     };
     commit(sim);
+    // A particle in wall material after the step is one whose end point `x + δx` (the point
+    // `commit` has just moved it to, the same sum) lies at a depth > 0, so none is when the
+    // check's deepest end point is at depth 0 and the guard did not run: the count's pass over
+    // every fluid particle is needed only otherwise.
+    let wall_penetrations = if deepest > 0.0 {
+        sim.wall_penetrations()
+    } else {
+        0
+    };
     let report = StepReport {
         step,
         t: t + dt,
@@ -404,7 +413,7 @@ fn projection_passes<D: Dim>(
         correction_fallbacks,
         hessian_fallbacks: projected.hessian_fallbacks,
         gauge_multiplier: projected.gauge_multiplier,
-        wall_penetrations: sim.wall_penetrations(),
+        wall_penetrations,
         max_displacement,
         wall_guarded,
         phases,

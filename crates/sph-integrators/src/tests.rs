@@ -466,3 +466,46 @@ fn first_largest_is_the_sequential_scan() {
         assert_eq!(got, (100, 2.0));
     }
 }
+
+sph_core::dim_tests! {
+    /// A step's report counts the fluid particles in wall material after it, as
+    /// [`Simulation::wall_penetrations`] does: the test drop in a container whose lower-x wall
+    /// line cuts off the drop's leftmost column (x = −0.25, moving inwards at 25 per unit
+    /// time, so still about 0.028 deep after the step) reports every particle of that column;
+    /// with the line beyond the drop, none.
+    fn a_step_reports_the_particles_left_in_wall_material<D>() {
+        for (lo, column) in [(-0.22, true), (-0.35, false)] {
+            let (mut p, cfg) = drop::<D>();
+            let first = p.len();
+            // Two wall particles far from the drop (no neighbours in it).
+            let far = [D::Vector::from_fn(|_| 5.0), D::Vector::from_fn(|c| if c == 0 { 5.2 } else { 5.0 })];
+            for x in far {
+                p.positions.push(x);
+                p.velocities.push(D::Vector::ZERO);
+                p.masses.push(p.masses[0]);
+                p.densities.push(p.densities[0]);
+                p.pressures.push(0.0);
+            }
+            let walls = Walls::<D> {
+                model: WallModel::DummyParticles,
+                condition: WallCondition::Continuation,
+                first,
+                velocity: vec![D::Vector::ZERO; 2],
+                mirror: vec![D::Vector::from_fn(|_| -1.0); 2],
+                inward: vec![D::Vector::from_fn(|c| if c == 0 { 1.0 } else { 0.0 }); 2],
+                separation: false,
+                geometry: crate::WallGeometry::closed_box(
+                    D::Vector::from_fn(|c| if c == 0 { lo } else { -1.0 }),
+                    D::Vector::from_fn(|_| 6.0),
+                ),
+                thickness: 0.5,
+            };
+            let mut sim = Simulation::with_walls(p, cfg, walls).unwrap();
+            let r = Scheme::new(SchemeKind::Dg).step(&mut sim, 1e-4).unwrap();
+            let want = sim.particles.positions[..first].iter().filter(|x| x.get(0) < lo).count();
+            assert_eq!(want > 0, column, "{}: lo = {lo}: {want}", D::NAME);
+            assert_eq!(sim.wall_penetrations(), want, "{}: lo = {lo}", D::NAME);
+            assert_eq!(r.wall_penetrations, want, "{}: lo = {lo}", D::NAME);
+        }
+    }
+}

@@ -98,7 +98,7 @@ impl<D: Dim> CellGrid<D> {
         let mut c = [0i64; 3];
         for (k, ck) in c.iter_mut().enumerate().take(D::DIM) {
             // Saturating float-to-int conversion: far-away query points land outside the grid.
-            *ck = ((p.get(k) - self.origin[k]) * self.inv_cell).floor() as i64;
+            *ck = floor_i64((p.get(k) - self.origin[k]) * self.inv_cell);
         }
         c
     }
@@ -197,6 +197,19 @@ impl<D: Dim> CellGrid<D> {
                 }
             }
         }
+    }
+}
+
+/// `x.floor() as i64`, the same value for every `x` (NaN → 0, saturating beyond the range of
+/// `i64`), without the call to libm's `floor` that `f64::floor` compiles to on x86-64 without
+/// SSE4.1: two calls per point in the build and per query, 0.5 % of a one-thread cavity step.
+#[inline(always)]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x {
+        t.saturating_sub(1)
+    } else {
+        t
     }
 }
 
@@ -300,5 +313,44 @@ impl<D: Dim> NeighborSearch<D> for CellGrid<D> {
 
     fn set_periodic(&mut self, periodic: Option<Periodic<D>>) {
         self.periodic = periodic;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::floor_i64;
+
+    /// `floor_i64` is `floor() as i64` on integers, halves, values next to integers (either
+    /// sign), the extremes of `i64` and beyond, infinities and NaN.
+    #[test]
+    fn floor_i64_is_floor_as_i64() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MAX,
+            f64::MIN,
+        ];
+        for k in [
+            0.0,
+            1.0,
+            2.0,
+            7.0,
+            1e6,
+            2f64.powi(52),
+            2f64.powi(53),
+            2f64.powi(63),
+            1e300,
+        ] {
+            for x in [k, k + 0.5, k.next_up(), k.next_down(), k + 1e-9] {
+                xs.extend([x, -x]);
+            }
+        }
+        xs.extend([f64::MIN_POSITIVE, -f64::MIN_POSITIVE, 5e-324, -5e-324]);
+        for x in xs {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x:e}");
+        }
     }
 }

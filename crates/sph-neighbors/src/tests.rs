@@ -235,6 +235,32 @@ sph_core::dim_tests! {
 }
 
 sph_core::dim_tests! {
+    /// On lattices whose spacing divides the radius (5 spacings), many pairs lie at the radius
+    /// itself, kept or dropped by the last bit of their squared distance (3-4-5 triangles), and
+    /// many points on cell edges: both searches find exactly the brute force's rows, for
+    /// lattices offset from the origin and for probe points between the lattice points.
+    fn lattices_with_pairs_at_the_radius_match_brute_force<D>() {
+        for (s, offset) in [(0.1, 0.0), (1.0 / 3.0, 0.0), (0.7, 0.25), (1e-3, 17.0)] {
+            let m: usize = if D::DIM == 2 { 24 } else { 11 };
+            let mut pts = Vec::new();
+            for k in 0..m.pow(D::DIM as u32) {
+                let idx = [k % m, (k / m) % m, k / (m * m)];
+                pts.push(D::Vector::from_fn(|a| offset + s * idx[a] as f64));
+            }
+            let r = 5.0 * s;
+            let at_radius = pts
+                .iter()
+                .filter(|x| ((**x - pts[0]).length() / s - 5.0).abs() < 1e-9)
+                .count();
+            assert!(at_radius >= 3, "{}: {at_radius} points at the radius", D::NAME);
+            let probes: Vec<D::Vector> = pts.iter().map(|x| *x + D::Vector::from_fn(|_| 0.5 * s)).collect();
+            check_against_brute_force::<D>(&pts, &pts, r);
+            check_against_brute_force::<D>(&pts, &probes, r);
+        }
+    }
+}
+
+sph_core::dim_tests! {
     /// Periodic search equals the minimum-image brute force, for both backends, with points
     /// crowding the periodic faces and corners; rows hold no duplicates.
     fn periodic_search_matches_minimum_image_brute_force<D>() {
