@@ -53,7 +53,16 @@ fn matvec(c: &mut Criterion) {
         let mut m = CsrMatrix::default();
         let mut rhs = vec![0.0; n];
         assemble_ppe(
-            &ctx, &ones, &ones, &src, 1.0, &dirichlet, None, &mut m, &mut rhs,
+            &ctx,
+            &ones,
+            &ones,
+            &src,
+            1.0,
+            &dirichlet,
+            None,
+            rhs.len(),
+            &mut m,
+            &mut rhs,
         )
         .expect("assembly of the bench matrix");
         let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();

@@ -40,7 +40,16 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
             |b| {
                 b.iter(|| {
                     assemble_ppe(
-                        &ctx, ones, ones, &src, 1e-3, &dirichlet, None, &mut m, &mut rhs,
+                        &ctx,
+                        ones,
+                        ones,
+                        &src,
+                        1e-3,
+                        &dirichlet,
+                        None,
+                        rhs.len(),
+                        &mut m,
+                        &mut rhs,
                     )
                     .unwrap();
                     black_box(m.values[0])
@@ -54,7 +63,17 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
             group.bench_function(BenchmarkId::new(format!("{name}/{}", D::NAME), n), |b| {
                 b.iter(|| {
                     assemble_dg(
-                        &ctx, ones, &a, &src, 1e-3, h, &dirichlet, None, &mut m, &mut rhs,
+                        &ctx,
+                        ones,
+                        &a,
+                        &src,
+                        1e-3,
+                        h,
+                        &dirichlet,
+                        None,
+                        rhs.len(),
+                        &mut m,
+                        &mut rhs,
                     )
                     .unwrap();
                     black_box(m.values[0])
@@ -89,7 +108,16 @@ fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
     let mut rhs = vec![0.0; n];
     let ones = vec![1.0; n];
     assemble_ppe(
-        &ctx, &vols, &ones, &src, 2e-4, &dirichlet, None, &mut m, &mut rhs,
+        &ctx,
+        &vols,
+        &ones,
+        &src,
+        2e-4,
+        &dirichlet,
+        None,
+        rhs.len(),
+        &mut m,
+        &mut rhs,
     )
     .unwrap();
     let sys = CsrSystem {
@@ -133,6 +161,7 @@ fn solvers<D: Dim>(c: &mut Criterion, case: CaseKind, dx: f64) {
         2e-4,
         &none,
         None,
+        rhs.len(),
         &mut closed,
         &mut rhs,
     )

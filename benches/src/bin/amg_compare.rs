@@ -55,7 +55,16 @@ fn main() {
             let mut m = CsrMatrix::default();
             let mut rhs = vec![0.0; n];
             assemble_ppe(
-                &ctx, ones, ones, &src, 1.0, &dirichlet, None, &mut m, &mut rhs,
+                &ctx,
+                ones,
+                ones,
+                &src,
+                1.0,
+                &dirichlet,
+                None,
+                rhs.len(),
+                &mut m,
+                &mut rhs,
             )
             .unwrap();
             let sys = CsrSystem {

@@ -171,7 +171,7 @@ pub(crate) fn project<D: Dim>(
     let clock = Instant::now();
     match equation {
         Equation::Ppe => {
-            divergence(&ctx, u_star, l, &mut e.source);
+            divergence(&ctx, u_star, l, &mut e.source[..nf]);
             phases.add(Phase::Source, clock);
             let clock = Instant::now();
             // Masses from volumes and densities: m_j = ρ_j V_j.
@@ -186,6 +186,7 @@ pub(crate) fn project<D: Dim>(
                 dt,
                 &e.dirichlet,
                 consistent,
+                nf,
                 &mut e.matrix,
                 &mut e.rhs,
             )
@@ -194,8 +195,8 @@ pub(crate) fn project<D: Dim>(
         }
         Equation::Dg => {
             // A = I + Δt ∇u*,  det A − 1 = Δt I1 + Δt² I2 + Δt³ I3 (no cancellation).
-            velocity_gradient(&ctx, u_star, l, &mut e.a);
-            for (a, s) in e.a.iter_mut().zip(e.source.iter_mut()) {
+            velocity_gradient(&ctx, u_star, l, &mut e.a[..nf]);
+            for (a, s) in e.a[..nf].iter_mut().zip(&mut e.source[..nf]) {
                 let inv = invariants::<D>(a);
                 *s = dt * (inv.i1 + dt * (inv.i2 + dt * inv.i3));
                 *a = D::Matrix::IDENTITY + *a * dt;
@@ -211,6 +212,7 @@ pub(crate) fn project<D: Dim>(
                 e.config.dg_hessian,
                 &e.dirichlet,
                 consistent,
+                nf,
                 &mut e.matrix,
                 &mut e.rhs,
             )
@@ -253,8 +255,13 @@ pub(crate) fn project<D: Dim>(
     phases.add_seconds(Phase::PrecondSetup, solve.setup_seconds);
     phases.add_seconds(Phase::Solve, total - solve.setup_seconds);
     let clock = Instant::now();
-    gradient(&ctx, pressures, e.config.gradient, l, &mut e.grad_p);
-    for (((un, us), g), rho) in u_new.iter_mut().zip(u_star).zip(&e.grad_p).zip(densities) {
+    gradient(&ctx, pressures, e.config.gradient, l, &mut e.grad_p[..nf]);
+    for (((un, us), g), rho) in u_new[..nf]
+        .iter_mut()
+        .zip(u_star)
+        .zip(&e.grad_p[..nf])
+        .zip(densities)
+    {
         *un = *us - *g * (dt / rho);
     }
     phases.add(Phase::Correction, clock);

@@ -130,7 +130,9 @@ fn intermediate_velocity<D: Dim>(
         if let Some(w) = walls {
             w.no_slip_velocity(&ctx, &p.velocities, &mut b.u_visc[nf..]);
         }
-        viscous_acceleration(&ctx, &p.masses, &p.densities, v.nu, &b.u_visc, &mut b.acc);
+        // The fluid's rows only: the walls keep their prescribed velocity.
+        let acc = &mut b.acc[..nf];
+        viscous_acceleration(&ctx, &p.masses, &p.densities, v.nu, &b.u_visc, acc);
         phases.add(Phase::Viscosity, clock);
     }
     if let Some(g) = fx.gravity {
@@ -163,14 +165,16 @@ struct ShiftBuffers<'a, D: Dim> {
 
 fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shifting, dt: f64) {
     let l = e.config.renormalise.then_some(&e.corrections[..]);
+    let nf = e.fluid;
     // The concentration term evaluates W per pair: choose the kernel once, outside the loop.
+    // The fluid's rows only: walls do not shift.
+    let (grad_c, grad_u) = (&mut b.grad_c[..nf], &mut b.grad_u[..nf]);
     sph_kernels::with_kernel!(&e.kernel, k => {
         let ctx = engine_context!(e, x, k);
-        shifting_gradients(&ctx, sh.spacing, b.u_new, l, b.grad_c, b.grad_u);
+        shifting_gradients(&ctx, sh.spacing, b.u_new, l, grad_c, grad_u);
     });
     let h = e.config.h;
     let cap = MAX_SHIFT * sh.spacing;
-    let nf = e.fluid;
     let free = e.config.free_surface.is_some();
     let (grad_c, grad_u) = (&b.grad_c[..nf], &b.grad_u[..nf]);
     // Each particle on its own: in parallel, and the same bits for any number of threads.

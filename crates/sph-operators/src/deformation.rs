@@ -12,6 +12,9 @@ use sph_kernels::Kernel;
 /// This is the displacement-gradient term of paper Eq. (26) applied to `u` (the paper writes the
 /// transpose, `∂u_l/∂x_k`; the determinant and `cof(A):H` for symmetric `H` are the same either
 /// way).
+///
+/// Computed for the first `out.len()` particles (all of them, or a prefix: see the crate
+/// docs).
 pub fn velocity_gradient<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     u: &[D::Vector],
@@ -19,7 +22,7 @@ pub fn velocity_gradient<D: Dim, K: Kernel<D>>(
     out: &mut [D::Matrix],
 ) {
     assert_eq!(u.len(), ctx.len());
-    assert_eq!(out.len(), ctx.len());
+    assert!(out.len() <= ctx.len(), "at most one output per particle");
     gather(out, |i| {
         let m = raw_velocity_gradient(ctx, u, i);
         match corrections {
@@ -37,6 +40,9 @@ pub fn velocity_gradient<D: Dim, K: Kernel<D>>(
 ///
 /// with the gradient taken in the reference configuration (the positions of `ctx`). DG-ISPH
 /// (Algorithm 1) uses it with `Δx = Δt u*` to form `A = I + ∇(Δt u*)`.
+///
+/// Computed for the first `out.len()` particles (all of them, or a prefix: see the crate
+/// docs).
 pub fn deformation_gradient<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     displacements: &[D::Vector],

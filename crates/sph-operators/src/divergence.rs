@@ -11,6 +11,9 @@ use sph_kernels::Kernel;
 ///
 /// With corrections it is evaluated as `M_i : L_i`, `M_i = Σ_j V_j (u_j − u_i) ⊗ ∇W_ij`, so the
 /// correction costs one contraction per particle instead of a matrix product per pair.
+///
+/// Computed for the first `out.len()` particles (all of them, or a prefix: see the crate
+/// docs).
 pub fn divergence<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     u: &[D::Vector],
@@ -18,7 +21,7 @@ pub fn divergence<D: Dim, K: Kernel<D>>(
     out: &mut [f64],
 ) {
     assert_eq!(u.len(), ctx.len());
-    assert_eq!(out.len(), ctx.len());
+    assert!(out.len() <= ctx.len(), "at most one output per particle");
     match corrections {
         None => gather(out, |i| {
             let ui = u[i];

@@ -18,6 +18,9 @@ pub enum GradientForm {
 
 /// Gradient of the scalar field `f` (see [`GradientForm`]); `corrections` are the optional
 /// renormalisation matrices `L_i` of [`correction_matrices`](crate::correction_matrices).
+///
+/// Computed for the first `out.len()` particles (all of them, or a prefix: see the crate
+/// docs).
 pub fn gradient<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     f: &[f64],
@@ -26,7 +29,7 @@ pub fn gradient<D: Dim, K: Kernel<D>>(
     out: &mut [D::Vector],
 ) {
     assert_eq!(f.len(), ctx.len());
-    assert_eq!(out.len(), ctx.len());
+    assert!(out.len() <= ctx.len(), "at most one output per particle");
     let sign = match form {
         GradientForm::Difference => -1.0,
         GradientForm::Symmetric => 1.0,

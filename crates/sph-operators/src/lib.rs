@@ -6,7 +6,11 @@
 //! step's [`NeighborList`](neighbors::NeighborList) and a [`Kernel`](kernels::Kernel) — and writes
 //! one value per particle into a caller-owned slice (no allocation, one rayon task per chunk of
 //! particles, each particle writing only its own slot, so results do not depend on the thread
-//! count). Pair loops go through [`SphContext::for_each_pair`]; a step that runs several
+//! count). The per-particle operators below (the gradients, divergence, viscous term and
+//! shifting gradients) also take a shorter output slice and then compute only the first
+//! `out.len()` particles, bitwise as the full pass would: a caller whose trailing particles
+//! need no value (walls numbered after the fluid) skips them.
+//! Pair loops go through [`SphContext::for_each_pair`]; a step that runs several
 //! operators on one neighbour list computes the kernel-gradient factors once
 //! ([`grad_factors`]) and attaches them ([`SphContext::with_grad_factors`]) — same bits, less
 //! arithmetic.

@@ -57,6 +57,9 @@ fn inverse_w_dp<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, spacing: f64) 
 /// evaluated once: `grad_c` = [`concentration_gradient`] and `grad_u` =
 /// [`velocity_gradient`](crate::velocity_gradient) of `u` (renormalised with `corrections`
 /// when given), bitwise equal to the two separate passes.
+///
+/// Computed for the first `grad_c.len()` particles (`grad_u` as long; all of them, or a
+/// prefix: see the crate docs).
 pub fn shifting_gradients<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     spacing: f64,
@@ -66,8 +69,8 @@ pub fn shifting_gradients<D: Dim, K: Kernel<D>>(
     grad_u: &mut [D::Matrix],
 ) {
     assert_eq!(u.len(), ctx.len());
-    assert_eq!(grad_c.len(), ctx.len());
-    assert_eq!(grad_u.len(), ctx.len());
+    assert!(grad_c.len() <= ctx.len(), "at most one output per particle");
+    assert_eq!(grad_u.len(), grad_c.len());
     let inv_w_dp = inverse_w_dp(ctx, spacing);
     grad_c
         .par_iter_mut()

@@ -711,3 +711,67 @@ sph_core::dim_tests! {
         });
     }
 }
+
+sph_core::dim_tests! {
+    /// Each per-particle operator given an output shorter than the particle count computes the
+    /// first `out.len()` particles bitwise as the full pass does (the step passes the fluid's
+    /// slice, the walls numbered after it): with and without renormalisation, on a perturbed
+    /// lattice, at a prefix length that is no multiple of a rayon work item.
+    fn operators_on_a_prefix_match_the_full_pass_bitwise<D>() {
+        let lat = Lattice::<D>::new(KernelKind::WendlandC2, 1.3, 0.2);
+        let n = lat.len();
+        let m = n / 2 + 1;
+        let mut rng = SplitMix64::new(11);
+        let f: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+        let u: Vec<D::Vector> = (0..n).map(|_| rng.vector::<D>(-1.0, 1.0)).collect();
+        let rho: Vec<f64> = (0..n).map(|_| rng.uniform(0.9, 1.1)).collect();
+        let vb = |v: &[D::Vector]| -> Vec<u64> {
+            v.iter().flat_map(|x| (0..D::DIM).map(|k| x.get(k).to_bits())).collect()
+        };
+        let mb = |v: &[D::Matrix]| -> Vec<u64> {
+            v.iter()
+                .flat_map(|x| (0..D::DIM * D::DIM).map(|k| x.get(k / D::DIM, k % D::DIM).to_bits()))
+                .collect()
+        };
+        let sb = |v: &[f64]| -> Vec<u64> { v.iter().map(|x| x.to_bits()).collect() };
+        // The prefix holds computed values, not the zeros it started from.
+        let nonzero = |bits: &[u64]| bits.iter().any(|&b| b != 0 && b != (-0.0f64).to_bits());
+        lat.with_ctx(|ctx| {
+            let mut l = vec![D::Matrix::ZERO; n];
+            correction_matrices(ctx, 1e-12, f64::INFINITY, &mut l);
+            for corr in [None, Some(&l[..])] {
+                for form in [GradientForm::Difference, GradientForm::Symmetric] {
+                    let (mut full, mut part) = (vec![D::Vector::ZERO; n], vec![D::Vector::ZERO; m]);
+                    gradient(ctx, &f, form, corr, &mut full);
+                    gradient(ctx, &f, form, corr, &mut part);
+                    assert!(nonzero(&vb(&part)));
+                    assert_eq!(vb(&part), vb(&full[..m]), "gradient {form:?}");
+                }
+                let (mut full, mut part) = (vec![0.0; n], vec![0.0; m]);
+                divergence(ctx, &u, corr, &mut full);
+                divergence(ctx, &u, corr, &mut part);
+                assert!(nonzero(&sb(&part)));
+                assert_eq!(sb(&part), sb(&full[..m]), "divergence");
+                let (mut full, mut part) = (vec![D::Matrix::ZERO; n], vec![D::Matrix::ZERO; m]);
+                velocity_gradient(ctx, &u, corr, &mut full);
+                velocity_gradient(ctx, &u, corr, &mut part);
+                assert!(nonzero(&mb(&part)));
+                assert_eq!(mb(&part), mb(&full[..m]), "velocity gradient");
+                let (mut gc, mut gu) = (vec![D::Vector::ZERO; n], vec![D::Matrix::ZERO; n]);
+                let (mut pc, mut pu) = (vec![D::Vector::ZERO; m], vec![D::Matrix::ZERO; m]);
+                shifting_gradients(ctx, lat.dx, &u, corr, &mut gc, &mut gu);
+                shifting_gradients(ctx, lat.dx, &u, corr, &mut pc, &mut pu);
+                assert!(nonzero(&vb(&pc)) && nonzero(&mb(&pu)));
+                assert_eq!(vb(&pc), vb(&gc[..m]), "shifting: concentration gradient");
+                assert_eq!(mb(&pu), mb(&gu[..m]), "shifting: velocity gradient");
+            }
+            // The viscous term adds to what `acc` holds.
+            let start: Vec<D::Vector> = (0..n).map(|_| rng.vector::<D>(-1.0, 1.0)).collect();
+            let (mut full, mut part) = (start.clone(), start[..m].to_vec());
+            viscous_acceleration(ctx, &lat.volumes, &rho, 0.01, &u, &mut full);
+            viscous_acceleration(ctx, &lat.volumes, &rho, 0.01, &u, &mut part);
+            assert_ne!(vb(&part), vb(&start[..m]));
+            assert_eq!(vb(&part), vb(&full[..m]), "viscous acceleration");
+        });
+    }
+}

@@ -16,6 +16,9 @@ use sph_kernels::Kernel;
 /// Velocities of wall/ghost particles enter through `u` like any other neighbour's. Each pair
 /// costs one division: with `x_ij·∇W_ij = s_ij r_ij²` (`s_ij` the kernel's gradient factor),
 /// `m_j ν (ρ_i + ρ_j) s_ij r_ij² / (ρ_i ρ_j (r_ij² + η²))`.
+///
+/// Computed for the first `acc.len()` particles (all of them, or a prefix: see the crate
+/// docs).
 pub fn viscous_acceleration<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     masses: &[f64],
@@ -25,7 +28,7 @@ pub fn viscous_acceleration<D: Dim, K: Kernel<D>>(
     acc: &mut [D::Vector],
 ) {
     assert!(masses.len() == ctx.len() && densities.len() == ctx.len() && u.len() == ctx.len());
-    assert_eq!(acc.len(), ctx.len());
+    assert!(acc.len() <= ctx.len(), "at most one output per particle");
     // Gather: each particle reads its neighbours and writes only its own slot.
     let add = |i: usize| {
         let eta2 = laplacian_regulariser(ctx.kernel.h());

@@ -34,6 +34,11 @@ pub enum PressureRhs<'a> {
 /// With `consistent` (the renormalisation matrices `L_i`), the stencil is made exact for linear
 /// fields on any particle arrangement ([`linear_consistent`]); the matrix is then no longer
 /// symmetric.
+///
+/// Only rows `0..rows` are assembled (`rows = ctx.len()`: all); the matrix entries and
+/// right-hand side of the others are left as they are, for rows another equation writes (the
+/// walls', [`assemble_wall_rows`](crate::assemble_wall_rows)). Columns of every Dirichlet
+/// particle are dropped from the assembled rows.
 pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     masses: &[f64],
@@ -42,17 +47,19 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
     dt: f64,
     dirichlet: &[bool],
     consistent: Option<&[D::Matrix]>,
+    rows: usize,
     matrix: &mut CsrMatrix,
     rhs: &mut [f64],
 ) -> Result<(), PressureError> {
     let n = ctx.len();
     assert!(masses.len() == n && densities.len() == n && div_u_star.len() == n);
-    assert!(dirichlet.len() == n && rhs.len() == n);
+    assert!(dirichlet.len() == n && rhs.len() == n && rows <= n);
     let nl = ctx.neighbors;
     matrix.resize(nl.nnz());
+    let (offsets, values) = assembled_rows(nl.offsets(), &mut matrix.values, rows);
     let eta2 = laplacian_regulariser(ctx.kernel.h());
     let any_dirichlet = dirichlet.iter().any(|d| *d);
-    for_each_row_mut(nl.offsets(), &mut matrix.values, &|i, row| {
+    for_each_row_mut(offsets, values, &|i, row| {
         let Some((cols, diag)) = begin_row(nl.row(i), i, dirichlet, row) else {
             return;
         };
@@ -81,8 +88,8 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
         }
         row[diag] = sum;
     });
-    fill_rhs(rhs, dirichlet, |i| -div_u_star[i] / dt);
-    check_finite(matrix, nl.offsets(), rhs)
+    fill_rhs(&mut rhs[..rows], dirichlet, |i| -div_u_star[i] / dt);
+    check_finite(values, offsets, &rhs[..rows])
 }
 
 /// Assembles the deformation-gradient pressure equation of DG-ISPH, paper Eqs. (23)–(24) for
@@ -98,6 +105,11 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
 /// where the quadratic fit fell back to Eq. 25.
 ///
 /// With `consistent`, the stencil is made exact for linear fields ([`linear_consistent`]).
+///
+/// Only rows `0..rows` are assembled (`rows = ctx.len()`: all); the matrix entries and
+/// right-hand side of the others are left as they are, for rows another equation writes (the
+/// walls', [`assemble_wall_rows`](crate::assemble_wall_rows)). Columns of every Dirichlet
+/// particle are dropped from the assembled rows.
 pub fn assemble_dg<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     densities: &[f64],
@@ -107,18 +119,20 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
     hessian: DgHessian,
     dirichlet: &[bool],
     consistent: Option<&[D::Matrix]>,
+    rows: usize,
     matrix: &mut CsrMatrix,
     rhs: &mut [f64],
 ) -> Result<usize, PressureError> {
     let n = ctx.len();
     assert!(densities.len() == n && a.len() == n && det_a_minus_one.len() == n);
-    assert!(dirichlet.len() == n && rhs.len() == n);
+    assert!(dirichlet.len() == n && rhs.len() == n && rows <= n);
     let nl = ctx.neighbors;
     matrix.resize(nl.nnz());
+    let (offsets, values) = assembled_rows(nl.offsets(), &mut matrix.values, rows);
     // Without a Dirichlet row no column is zeroed: the per-row pass over the columns is skipped.
     let any_dirichlet = dirichlet.iter().any(|d| *d);
     let fallbacks = std::sync::atomic::AtomicUsize::new(0);
-    for_each_row_mut(nl.offsets(), &mut matrix.values, &|i, row| {
+    for_each_row_mut(offsets, values, &|i, row| {
         let Some((cols, diag)) = begin_row(nl.row(i), i, dirichlet, row) else {
             return;
         };
@@ -155,8 +169,10 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
         }
         row[diag] += sum;
     });
-    fill_rhs(rhs, dirichlet, |i| -det_a_minus_one[i] / (dt * dt));
-    check_finite(matrix, nl.offsets(), rhs)?;
+    fill_rhs(&mut rhs[..rows], dirichlet, |i| {
+        -det_a_minus_one[i] / (dt * dt)
+    });
+    check_finite(values, offsets, &rhs[..rows])?;
     Ok(fallbacks.into_inner())
 }
 
@@ -229,11 +245,23 @@ fn fill_rhs(rhs: &mut [f64], dirichlet: &[bool], value: impl Fn(usize) -> f64) {
     }
 }
 
-fn check_finite(matrix: &CsrMatrix, offsets: &[usize], rhs: &[f64]) -> Result<(), PressureError> {
+/// The offsets and values of rows `0..rows` of a matrix on the pattern `offsets`.
+fn assembled_rows<'a>(
+    offsets: &'a [usize],
+    values: &'a mut [f64],
+    rows: usize,
+) -> (&'a [usize], &'a mut [f64]) {
+    let offsets = &offsets[..=rows];
+    (offsets, &mut values[..offsets[rows]])
+}
+
+/// Every entry of `values` (rows on the pattern `offsets`) and `rhs` finite, or the first row
+/// holding one that is not.
+fn check_finite(values: &[f64], offsets: &[usize], rhs: &[f64]) -> Result<(), PressureError> {
     // The common case, all finite, checked in parallel; the first culprit (the same for any
     // number of threads) is then searched for in order.
     let finite = |v: &[f64]| v.par_iter().with_min_len(1 << 14).all(|x| x.is_finite());
-    if finite(rhs) && finite(&matrix.values) {
+    if finite(rhs) && finite(values) {
         return Ok(());
     }
     if let Some(row) = rhs.iter().position(|v| !v.is_finite()) {
@@ -242,7 +270,7 @@ fn check_finite(matrix: &CsrMatrix, offsets: &[usize], rhs: &[f64]) -> Result<()
             row,
         });
     }
-    if let Some(k) = matrix.values.iter().position(|v| !v.is_finite()) {
+    if let Some(k) = values.iter().position(|v| !v.is_finite()) {
         let row = offsets.partition_point(|&o| o <= k) - 1;
         return Err(PressureError::NonFinite {
             what: "matrix entry",

@@ -63,6 +63,7 @@ impl<D: Dim> Fixture<D> {
             1.0,
             &self.dirichlet,
             None,
+            rhs.len(),
             &mut m,
             &mut rhs,
         )
@@ -146,7 +147,7 @@ sph_core::dim_tests! {
         let masses: Vec<f64> = fx.vols.iter().map(|v| v * rng.uniform(0.7, 1.3)).collect();
         let rho: Vec<f64> = (0..n).map(|_| rng.uniform(0.8, 1.25)).collect();
         let (mut m, mut rhs) = (CsrMatrix::default(), vec![0.0; n]);
-        assemble_ppe(&fx.ctx(), &masses, &rho, &vec![0.0; n], 1.0, &vec![false; n], None, &mut m, &mut rhs).unwrap();
+        assemble_ppe(&fx.ctx(), &masses, &rho, &vec![0.0; n], 1.0, &vec![false; n], None, rhs.len(), &mut m, &mut rhs).unwrap();
         let nl = &fx.nl;
         for i in 0..n {
             let (mut diag, mut sum) = (f64::NAN, 0.0);
@@ -175,7 +176,7 @@ sph_core::dim_tests! {
         let a = vec![D::Matrix::IDENTITY; n];
         let zeros = vec![0.0; n];
         let ones = vec![1.0; n];
-        assemble_dg(&fx.ctx(), &ones, &a, &zeros, 1.0, DgHessian::Eq25, &fx.dirichlet, None, &mut dg, &mut rhs).unwrap();
+        assemble_dg(&fx.ctx(), &ones, &a, &zeros, 1.0, DgHessian::Eq25, &fx.dirichlet, None, rhs.len(), &mut dg, &mut rhs).unwrap();
         for (k, (x, y)) in dg.values.iter().zip(&ppe.values).enumerate() {
             assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "entry {k}: {x} vs {y}");
         }
@@ -256,7 +257,7 @@ sph_core::dim_tests! {
         let (zeros, ones) = (vec![0.0; n], vec![1.0; n]);
         let mut dg = CsrMatrix::default();
         let mut rhs = vec![0.0; n];
-        assemble_dg(&fx.ctx(), &ones, &a, &zeros, 1.0, DgHessian::Eq25, &fx.dirichlet, None, &mut dg, &mut rhs).unwrap();
+        assemble_dg(&fx.ctx(), &ones, &a, &zeros, 1.0, DgHessian::Eq25, &fx.dirichlet, None, rhs.len(), &mut dg, &mut rhs).unwrap();
         let (x_star, b) = manufactured(&fx, &dg);
         let sys = CsrSystem { offsets: fx.nl.offsets(), cols: fx.nl.indices(), values: &dg.values, rhs: &b, border: None };
         let params = SolveParams { rel_tolerance: 1e-10, max_iterations: 5000 };
@@ -547,11 +548,11 @@ sph_core::dim_tests! {
         };
         let mut rhs = vec![0.0; n];
         let mut ppe = CsrMatrix::default();
-        assemble_ppe(&ctx, &vols, &ones, &zeros, 1.0, &none, Some(&l), &mut ppe, &mut rhs).unwrap();
+        assemble_ppe(&ctx, &vols, &ones, &zeros, 1.0, &none, Some(&l), rhs.len(), &mut ppe, &mut rhs).unwrap();
         let mut dg = CsrMatrix::default();
-        assemble_dg(&ctx, &ones, &a, &zeros, 1.0, DgHessian::Eq25, &none, Some(&l), &mut dg, &mut rhs).unwrap();
+        assemble_dg(&ctx, &ones, &a, &zeros, 1.0, DgHessian::Eq25, &none, Some(&l), rhs.len(), &mut dg, &mut rhs).unwrap();
         let mut morris = CsrMatrix::default();
-        assemble_ppe(&ctx, &vols, &ones, &zeros, 1.0, &none, None, &mut morris, &mut rhs).unwrap();
+        assemble_ppe(&ctx, &vols, &ones, &zeros, 1.0, &none, None, rhs.len(), &mut morris, &mut rhs).unwrap();
         assert!(residual(&ppe) < 1e-12, "consistent PPE: {}", residual(&ppe));
         assert!(residual(&dg) < 1e-12, "consistent DG: {}", residual(&dg));
         assert!(residual(&morris) > 1e-3, "Morris: {}", residual(&morris));
@@ -592,7 +593,7 @@ sph_core::dim_tests! {
         let none = vec![false; n];
         let mut m = CsrMatrix::default();
         let mut rhs = vec![0.0; n];
-        let fallbacks = assemble_dg(&fx.ctx(), &ones, &a, &src, dt, DgHessian::QuadraticFit, &none, None, &mut m, &mut rhs).unwrap();
+        let fallbacks = assemble_dg(&fx.ctx(), &ones, &a, &src, dt, DgHessian::QuadraticFit, &none, None, rhs.len(), &mut m, &mut rhs).unwrap();
         assert_eq!(fallbacks, 0);
         let mut mp = vec![0.0; n];
         m.matvec(fx.nl.offsets(), fx.nl.indices(), &p, &mut mp);
@@ -746,6 +747,64 @@ sph_core::dim_tests! {
                     }
                     assert!(outcomes[0] == outcomes[1], "{kind:?}, {n}, g = {g}: bordered solve differs from written-out");
                     assert!(outcomes[0] == outcomes[2], "{kind:?}, {n}, g = {g}: bordered view differs from written-out");
+                }
+            }
+        }
+    }
+}
+
+sph_core::dim_tests! {
+    /// Assembling rows `0..m` (the fluid's, the walls' rows written by their own equation)
+    /// gives those rows bitwise as the full assembly does, leaves the other rows' entries and
+    /// right-hand sides as they were, and checks only the assembled rows for non-finite values:
+    /// both equations, with Dirichlet rows and renormalised (consistent) stencils.
+    fn assembling_the_first_rows_leaves_the_others<D>() {
+        let fx = Fixture::<D>::jittered(if D::DIM == 2 { 20 } else { 10 }, 0.2);
+        let n = fx.pts.len();
+        let m = n / 2 + 1;
+        let mut rng = SplitMix64::new(21);
+        let rho: Vec<f64> = (0..n).map(|_| rng.uniform(0.9, 1.1)).collect();
+        let src: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+        let a: Vec<D::Matrix> = (0..n)
+            .map(|_| D::Matrix::from_fn(|i, j| f64::from(u8::from(i == j)) + rng.uniform(-0.05, 0.05)))
+            .collect();
+        let mut l = vec![D::Matrix::ZERO; n];
+        sph_operators::correction_matrices(&fx.ctx(), 1e-12, f64::INFINITY, &mut l);
+        let nnz = fx.nl.nnz();
+        let cut = fx.nl.offsets()[m];
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for consistent in [None, Some(&l[..])] {
+            for dg in [false, true] {
+                let assemble = |rows: usize, src: &[f64], mat: &mut CsrMatrix, rhs: &mut [f64]| {
+                    if dg {
+                        assemble_dg(&fx.ctx(), &rho, &a, src, 1e-3, DgHessian::Eq25, &fx.dirichlet, consistent, rows, mat, rhs).map(|_| ())
+                    } else {
+                        assemble_ppe(&fx.ctx(), &fx.vols, &rho, src, 1e-3, &fx.dirichlet, consistent, rows, mat, rhs)
+                    }
+                };
+                let (mut full, mut full_rhs) = (CsrMatrix::default(), vec![0.0; n]);
+                assemble(n, &src, &mut full, &mut full_rhs).unwrap();
+                let mut part = CsrMatrix { values: vec![7.0; nnz] };
+                let mut part_rhs = vec![7.0; n];
+                assemble(m, &src, &mut part, &mut part_rhs).unwrap();
+                let what = format!("dg {dg}, consistent {}", consistent.is_some());
+                assert_eq!(bits(&part.values[..cut]), bits(&full.values[..cut]), "{what}");
+                assert_eq!(bits(&part_rhs[..m]), bits(&full_rhs[..m]), "{what}");
+                assert!(part.values[cut..].iter().chain(&part_rhs[m..]).all(|&v| v == 7.0), "{what}");
+                // Neither a non-finite source beyond the assembled rows nor what those rows
+                // hold (stale values, not yet written) is read or checked; a non-finite source
+                // within them is reported with its row.
+                let last = (m..n).find(|&i| !fx.dirichlet[i]).unwrap();
+                let mut bad = src.clone();
+                bad[last] = f64::NAN;
+                part.values[cut..].fill(f64::NAN);
+                part_rhs[m..].fill(f64::NAN);
+                assemble(m, &bad, &mut part, &mut part_rhs).unwrap();
+                let first = (0..m).rev().find(|&i| !fx.dirichlet[i]).unwrap();
+                bad[first] = f64::NAN;
+                match assemble(m, &bad, &mut part, &mut part_rhs) {
+                    Err(crate::PressureError::NonFinite { row, .. }) => assert_eq!(row, first, "{what}"),
+                    other => panic!("{what}: {other:?}"),
                 }
             }
         }
