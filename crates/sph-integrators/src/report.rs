@@ -153,7 +153,8 @@ pub struct StepReport {
     pub free_surface_particles: usize,
     /// Particles whose renormalisation matrix was singular (identity used instead).
     pub correction_fallbacks: usize,
-    /// Rows where the quadratic-fit Hessian fell back to Eq. 25 (DG only).
+    /// Fluid rows where the quadratic-fit Hessian fell back to Eq. 25 (DG only; the wall rows
+    /// have their own equation).
     pub hessian_fallbacks: usize,
     /// Multiplier of the mean-zero pressure gauge (closed domains; 0 otherwise): the
     /// right-hand-side part incompatible with a constant pressure null space.
