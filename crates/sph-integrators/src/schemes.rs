@@ -122,7 +122,8 @@ fn intermediate_velocity<D: Dim>(
         return;
     }
     let nf = e.fluid;
-    b.acc.fill(D::Vector::ZERO);
+    // Only the fluid's accelerations are computed and read.
+    b.acc[..nf].fill(D::Vector::ZERO);
     if let Some(v) = fx.viscosity {
         let clock = Instant::now();
         let ctx = engine_context!(e, &p.positions);
@@ -176,7 +177,7 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
     let h = e.config.h;
     let cap = MAX_SHIFT * sh.spacing;
     let free = e.config.free_surface.is_some();
-    let (grad_c, grad_u) = (&b.grad_c[..nf], &b.grad_u[..nf]);
+    let (grad_c, grad_u) = (&*grad_c, &*grad_u);
     // Each particle on its own: in parallel, and the same bits for any number of threads.
     b.disp[..nf]
         .par_iter_mut()
