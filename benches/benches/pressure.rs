@@ -1,6 +1,7 @@
-//! Pressure-equation assembly (PPE and DG, `pressure/assemble_<eq>/<dim>/<n>`) on perturbed
-//! lattices, and each solver on the assembled matrices of the paper's drops after one step
-//! (`pressure/solve_<solver>/<dim>/<n>`).
+//! Pressure-equation assembly on perturbed lattices (PPE and DG,
+//! `pressure/assemble_<eq>[_cached]/<dim>/<n>`; `_cached` with the kernel's gradient factors
+//! attached, as the step runs it), and each solver on the assembled matrices of the paper's
+//! drops after one step (`pressure/solve_<solver>/<dim>/<n>`).
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use dgsph_benches::{Block, drop_scene};
@@ -9,7 +10,7 @@ use sph_cases::drop::initial;
 use sph_core::{D2, D3, Dim, MatrixOps, VectorOps};
 use sph_kernels::QuinticSpline;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
-use sph_operators::{SphContext, free_surface_indicator};
+use sph_operators::{SphContext, free_surface_indicator, grad_factors};
 use sph_pressure::{
     AnySolver, CsrMatrix, CsrSystem, DgHessian, LinearSolver, MeanZeroGauge, SolveParams,
     SolverKind, assemble_dg, assemble_ppe,
@@ -35,50 +36,58 @@ fn assembly<D: Dim>(c: &mut Criterion, sizes: &[usize]) {
             .collect();
         let mut m = CsrMatrix::default();
         let mut rhs = vec![0.0; n];
-        group.bench_function(
-            BenchmarkId::new(format!("assemble_ppe/{}", D::NAME), n),
-            |b| {
-                b.iter(|| {
-                    assemble_ppe(
-                        &ctx,
-                        ones,
-                        ones,
-                        &src,
-                        1e-3,
-                        &dirichlet,
-                        None,
-                        rhs.len(),
-                        &mut m,
-                        &mut rhs,
-                    )
-                    .unwrap();
-                    black_box(m.values[0])
-                })
-            },
-        );
-        for (name, h) in [
-            ("assemble_dg_eq25", DgHessian::Eq25),
-            ("assemble_dg_fit", DgHessian::QuadraticFit),
-        ] {
-            group.bench_function(BenchmarkId::new(format!("{name}/{}", D::NAME), n), |b| {
-                b.iter(|| {
-                    assemble_dg(
-                        &ctx,
-                        ones,
-                        &a,
-                        &src,
-                        1e-3,
-                        h,
-                        &dirichlet,
-                        None,
-                        rhs.len(),
-                        &mut m,
-                        &mut rhs,
-                    )
-                    .unwrap();
-                    black_box(m.values[0])
-                })
-            });
+        // The step attaches the kernel's gradient factors, computed once per step, to the
+        // context its passes share: the `_cached` variants time the assembly as it runs there.
+        let mut factors = Vec::new();
+        grad_factors(&ctx, &mut factors);
+        let cached = block.ctx().with_grad_factors(&factors);
+        for (suffix, ctx) in [("", &ctx), ("_cached", &cached)] {
+            group.bench_function(
+                BenchmarkId::new(format!("assemble_ppe{suffix}/{}", D::NAME), n),
+                |b| {
+                    b.iter(|| {
+                        assemble_ppe(
+                            ctx,
+                            ones,
+                            ones,
+                            &src,
+                            1e-3,
+                            &dirichlet,
+                            None,
+                            rhs.len(),
+                            &mut m,
+                            &mut rhs,
+                        )
+                        .unwrap();
+                        black_box(m.values[0])
+                    })
+                },
+            );
+            for (name, h) in [
+                ("assemble_dg_eq25", DgHessian::Eq25),
+                ("assemble_dg_fit", DgHessian::QuadraticFit),
+            ] {
+                let id = BenchmarkId::new(format!("{name}{suffix}/{}", D::NAME), n);
+                group.bench_function(id, |b| {
+                    b.iter(|| {
+                        assemble_dg(
+                            ctx,
+                            ones,
+                            &a,
+                            &src,
+                            1e-3,
+                            h,
+                            &dirichlet,
+                            None,
+                            rhs.len(),
+                            &mut m,
+                            &mut rhs,
+                        )
+                        .unwrap();
+                        black_box(m.values[0])
+                    })
+                });
+            }
         }
     }
     group.finish();

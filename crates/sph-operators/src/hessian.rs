@@ -58,11 +58,15 @@ pub fn hessian_stencil_eq25<D: Dim, K: Kernel<D>>(
 /// ```
 ///
 /// (`M : (x⊗x) = xᵀ M x`, `M : I = tr M`). With `x_ij·∇W_ij = s_ij r_ij²` (`s_ij` the
-/// kernel's gradient factor, [`Pair::grad_factor`](crate::Pair)) the pair costs one division:
+/// kernel's gradient factor, [`Pair::grad_factor`](crate::Pair)) and `r_ij² tr M = x_ijᵀ (tr M)
+/// I x_ij`, the pair costs one division and one quadratic form of a matrix formed once per row:
 ///
 /// ```text
-/// M : C_ij = −V_j s_ij / (r_ij² + η²) · ((d + 2) x_ijᵀ M x_ij − r_ij² tr M)
+/// M : C_ij = −V_j s_ij / (r_ij² + η²) · x_ijᵀ N x_ij,     N = (d + 2) M − (tr M) I
 /// ```
+///
+/// The matrix is linear in `M`: a caller scaling every pair (the DG equation's `1/ρ_i`) passes
+/// the scaled matrix.
 ///
 /// Equal to contracting the matrices to round-off (tested, 2D and 3D). Zero-distance pairs
 /// are not emitted.
@@ -73,8 +77,8 @@ pub fn hessian_stencil_eq25_contracted<D: Dim, K: Kernel<D>>(
     m: &D::Matrix,
     mut emit: impl FnMut(usize, f64),
 ) {
-    let coefficient = (D::DIM + 2) as f64;
-    let trace = m.trace();
+    // (d + 2) xᵀ M x − r² tr M = xᵀ N x with N = (d + 2) M − (tr M) I, formed once per row.
+    let n = *m * (D::DIM + 2) as f64 - D::Matrix::IDENTITY * m.trace();
     let eta2 = laplacian_regulariser(ctx.kernel.h());
     ctx.for_each_pair(i, |p| {
         let r2 = p.x_ij.length_squared();
@@ -82,10 +86,7 @@ pub fn hessian_stencil_eq25_contracted<D: Dim, K: Kernel<D>>(
             return;
         }
         let q = -ctx.volumes[p.j] * p.grad_factor / (r2 + eta2);
-        emit(
-            p.k,
-            q * (coefficient * p.x_ij.dot(*m * p.x_ij) - r2 * trace),
-        );
+        emit(p.k, q * p.x_ij.dot(n * p.x_ij));
     });
 }
 
