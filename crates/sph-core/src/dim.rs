@@ -143,6 +143,10 @@ pub trait MatrixOps<V: VectorOps>:
     fn cofactor(&self) -> Self;
     /// Double contraction `A : B = Σ_ij A_ij B_ij`.
     fn contract(&self, other: &Self) -> f64;
+    /// Quadratic form `xᵀ M x`, evaluated as `Σ_k M_kk x_k² + Σ_{k<l} (M_kl + M_lk) x_k x_l`
+    /// (5 multiplications in 2D, 9 in 3D, against 6 and 12 for `x·(M x)`; the pair sums are
+    /// loop-invariant where `M` is).
+    fn quadratic_form(&self, x: V) -> f64;
     /// True if every entry is finite.
     fn is_finite(&self) -> bool;
 }
@@ -264,6 +268,11 @@ impl MatrixOps<DVec2> for DMat2 {
         // M = [[a, b], [c, d]]  =>  cof(M) = [[d, −c], [−b, a]].
         DMat2::from_cols(DVec2::new(d, -b), DVec2::new(-c, a))
     }
+    #[inline(always)]
+    fn quadratic_form(&self, x: DVec2) -> f64 {
+        let b01 = self.x_axis.y + self.y_axis.x;
+        x.x * (self.x_axis.x * x.x + b01 * x.y) + self.y_axis.y * (x.y * x.y)
+    }
 }
 
 impl MatrixOps<DVec3> for DMat3 {
@@ -275,6 +284,14 @@ impl MatrixOps<DVec3> for DMat3 {
         let r1 = self.row(1);
         let r2 = self.row(2);
         DMat3::from_cols(r1.cross(r2), r2.cross(r0), r0.cross(r1)).transpose()
+    }
+    #[inline(always)]
+    fn quadratic_form(&self, x: DVec3) -> f64 {
+        let (c0, c1, c2) = (self.x_axis, self.y_axis, self.z_axis);
+        let (b01, b02, b12) = (c0.y + c1.x, c0.z + c2.x, c1.z + c2.y);
+        x.x * (c0.x * x.x + b01 * x.y + b02 * x.z)
+            + x.y * (c1.y * x.y + b12 * x.z)
+            + c2.z * (x.z * x.z)
     }
 }
 
@@ -347,6 +364,25 @@ mod tests {
                 }
             }
             assert!(D::Matrix::ZERO.try_inverse(1e-14).is_none());
+        }
+
+        /// `xᵀ M x` against the entry sum `Σ_ij x_i M_ij x_j`, for non-symmetric matrices
+        /// (every off-diagonal pair must enter with both of its entries).
+        fn quadratic_form_is_the_entry_sum<D>() {
+            let mut rng = SplitMix64::new(12);
+            for _ in 0..50 {
+                let m = random_matrix::<D>(&mut rng);
+                let x = rng.vector::<D>(-2.0, 2.0);
+                let mut sum = 0.0;
+                for i in 0..D::DIM {
+                    for j in 0..D::DIM {
+                        sum += x.get(i) * m.get(i, j) * x.get(j);
+                    }
+                }
+                let q = m.quadratic_form(x);
+                assert!((q - sum).abs() < 1e-13, "{q} against {sum}");
+                assert!((q - x.dot(m * x)).abs() < 1e-13);
+            }
         }
     }
 }

@@ -86,7 +86,7 @@ pub fn hessian_stencil_eq25_contracted<D: Dim, K: Kernel<D>>(
             return;
         }
         let q = -ctx.volumes[p.j] * p.grad_factor / (r2 + eta2);
-        emit(p.k, q * p.x_ij.dot(n * p.x_ij));
+        emit(p.k, q * n.quadratic_form(p.x_ij));
     });
 }
 
