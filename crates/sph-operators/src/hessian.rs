@@ -65,7 +65,7 @@ pub fn hessian_stencil_eq25<D: Dim, K: Kernel<D>>(
 /// M : C_ij = −V_j s_ij / (r_ij² + η²) · x_ijᵀ N x_ij,     N = (d + 2) M − (tr M) I
 /// ```
 ///
-/// The matrix is linear in `M`: a caller scaling every pair (the DG equation's `1/ρ_i`) passes
+/// `M : C_ij` is linear in `M`: a caller scaling every pair (the DG equation's `1/ρ_i`) passes
 /// the scaled matrix.
 ///
 /// Equal to contracting the matrices to round-off (tested, 2D and 3D). Zero-distance pairs
