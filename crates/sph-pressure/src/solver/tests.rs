@@ -182,6 +182,38 @@ sph_core::dim_tests! {
         }
     }
 
+    fn dg_rows_scale_with_the_inverse_density<D>() {
+        // Eqs. 23–24 divide row i by ρ_i: at densities ρ_i every entry of row i is the
+        // unit-density entry over ρ_i (both Hessian forms, a non-identity A).
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
+        let n = fx.pts.len();
+        let mut rng = SplitMix64::new(5);
+        let a: Vec<D::Matrix> = (0..n)
+            .map(|_| D::Matrix::IDENTITY + D::Matrix::from_fn(|_, _| rng.uniform(-0.05, 0.05)))
+            .collect();
+        let rho: Vec<f64> = (0..n).map(|_| rng.uniform(0.5, 3.0)).collect();
+        let (ones, zeros) = (vec![1.0; n], vec![0.0; n]);
+        for h in [DgHessian::Eq25, DgHessian::QuadraticFit] {
+            let (mut unit, mut dense) = (CsrMatrix::default(), CsrMatrix::default());
+            let mut rhs = vec![0.0; n];
+            assemble_dg(&fx.ctx(), &ones, &a, &zeros, 1.0, h, &fx.dirichlet, None, n, &mut unit, &mut rhs).unwrap();
+            assemble_dg(&fx.ctx(), &rho, &a, &zeros, 1.0, h, &fx.dirichlet, None, n, &mut dense, &mut rhs).unwrap();
+            let offsets = fx.nl.offsets();
+            let mut scaled_rows = 0;
+            for i in 0..n {
+                if fx.dirichlet[i] {
+                    continue;
+                }
+                scaled_rows += 1;
+                for k in offsets[i]..offsets[i + 1] {
+                    let (x, y) = (dense.values[k], unit.values[k] / rho[i]);
+                    assert!((x - y).abs() <= 1e-12 * y.abs().max(1e-3), "{h:?}, row {i}, entry {k}: {x} vs {y}");
+                }
+            }
+            assert!(scaled_rows > n / 2, "{h:?}: {scaled_rows} rows checked");
+        }
+    }
+
     fn non_convergence_and_bad_pivots_are_errors<D>() {
         let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
         let mut m = fx.ppe();
