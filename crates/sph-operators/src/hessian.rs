@@ -77,7 +77,7 @@ pub fn hessian_stencil_eq25_contracted<D: Dim, K: Kernel<D>>(
     m: &D::Matrix,
     mut emit: impl FnMut(usize, f64),
 ) {
-    // (d + 2) xᵀ M x − r² tr M = xᵀ N x with N = (d + 2) M − (tr M) I, formed once per row.
+    // N of the doc above, once per row.
     let n = *m * (D::DIM + 2) as f64 - D::Matrix::IDENTITY * m.trace();
     let eta2 = laplacian_regulariser(ctx.kernel.h());
     ctx.for_each_pair(i, |p| {

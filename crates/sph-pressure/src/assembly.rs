@@ -139,7 +139,8 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
         let cof = a[i].cofactor();
         let inv_rho = 1.0 / densities[i];
         let mut sum = 0.0;
-        // Negated row: −s_ij on p_j, +Σ s_ij on p_i, with s_ij = cof(A):C_ij / ρ_i = (cof(A) / ρ_i):C_ij.
+        // Negated row: −s_ij on p_j, +Σ s_ij on p_i, with
+        // s_ij = cof(A):C_ij / ρ_i = (cof(A) / ρ_i):C_ij.
         match hessian {
             DgHessian::Eq25 => hessian_stencil_eq25_contracted(ctx, i, &(cof * inv_rho), |k, s| {
                 sum += s;
