@@ -24,6 +24,34 @@ pub enum Command {
     Report(dgsph::cli::ReportArgs),
     /// The largest stable time step of each scheme (drop, Re 400 cavity, dam break).
     DtLimit(DtLimitArgs),
+    /// Run a scene N times with its time step changed at round-off and give each result's
+    /// mean, spread and standard error over the draws.
+    Ensemble(Box<EnsembleArgs>),
+}
+
+/// Flags of `cargo xtask ensemble`.
+#[derive(Debug, clap::Args)]
+pub struct EnsembleArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Number of draws (draw k runs with Δt (1 − k ε)).
+    #[arg(long, default_value_t = 9, value_parser = clap::value_parser!(u32).range(2..=1000))]
+    pub draws: u32,
+    /// The relative change ε of the time step between draws.
+    #[arg(long, default_value_t = 1e-14)]
+    pub perturbation: f64,
+    /// `full` (the scene as written) or `quick` (its `[quick]` overrides).
+    #[arg(long, value_enum, default_value = "full")]
+    pub preset: Preset,
+    /// Output directory for `<tag>_ensemble.csv` and `<tag>_ensemble.md`.
+    #[arg(long, default_value = "target/ensemble")]
+    pub out: PathBuf,
+    /// File prefix (default: the scene file's stem).
+    #[arg(long)]
+    pub tag: Option<String>,
+    /// Changes to the scene (applied before the draws' perturbation).
+    #[command(flatten)]
+    pub overrides: dgsph::overrides::Overrides,
 }
 
 /// Flags of `cargo xtask dt-limit`.

@@ -1,0 +1,164 @@
+//! `cargo xtask ensemble` through the real binary: each draw is the run `xtask run` (= `dgsph
+//! run`) gives at that draw's time step, bit for bit; the Markdown statistics are those of the
+//! CSV's values (recomputed here from the file); bad flags are typed input errors (exit 2).
+//! The 20² Re 100 cavity to t = 0.3 (30 steps of DG, a fraction of a second per draw).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("dgsph-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn scene() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/cavity_re100.toml")
+}
+
+fn xtask(args: &[&str]) -> (Option<i32>, String, Output) {
+    let o = Command::new(env!("CARGO_BIN_EXE_xtask"))
+        .args(args)
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+    (o.status.code(), text, o)
+}
+
+/// CSV rows `scheme,draw,dt,status,result,value`, as (draw, dt, result) → value.
+fn read_csv(path: &Path) -> BTreeMap<(usize, String), (f64, f64)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("scheme,draw,dt,status,result,value"));
+    let mut rows = BTreeMap::new();
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f.len(), 6, "{line}");
+        assert_eq!((f[0], f[3]), ("dg", "completed"), "{line}");
+        let dt: f64 = f[2].parse().unwrap();
+        let v: f64 = f[5].parse().unwrap();
+        rows.insert((f[1].parse().unwrap(), f[4].to_string()), (dt, v));
+    }
+    rows
+}
+
+#[test]
+fn draws_are_the_runs_at_their_time_steps_and_the_table_their_statistics() {
+    let dir = scratch("ensemble");
+    let out = dir.join("ens");
+    let scene = scene();
+    let scene = scene.to_str().unwrap();
+    let (code, text, _) = xtask(&[
+        "ensemble",
+        scene,
+        "--draws",
+        "3",
+        "--perturbation",
+        "1e-13",
+        "--t-end",
+        "0.3",
+        "--schemes",
+        "dg",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{text}");
+    let rows = read_csv(&out.join("cavity_re100_ensemble.csv"));
+    let dts: Vec<f64> = (0..3).map(|k| rows[&(k, "ghia_v_rms".into())].0).collect();
+    // The scene's Δt is 0.01; draw k runs at 0.01 (1 − k 1e-13).
+    assert_eq!(dts[0], 0.01);
+    for (k, dt) in dts.iter().enumerate() {
+        assert_eq!(*dt, 0.01 * (1.0 - k as f64 * 1e-13), "draw {k}");
+    }
+    // Each draw is `xtask run` at its time step: every result bit for bit (wall times aside).
+    for (k, dt) in dts.iter().enumerate() {
+        let run_out = dir.join(format!("run{k}"));
+        let (code, text, _) = xtask(&[
+            "run",
+            scene,
+            "--t-end",
+            "0.3",
+            "--schemes",
+            "dg",
+            "--dt",
+            &format!("{dt:?}"),
+            "--progress-every",
+            "0",
+            "--out",
+            run_out.to_str().unwrap(),
+        ]);
+        // Exit 1: the scene's Ghia checks fail at t = 0.3, far from the steady state (the
+        // ensemble reports values, not checks).
+        assert_eq!(code, Some(1), "{text}");
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(run_out.join("cavity_re100_dg.run.json")).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(json["status"], "completed", "{json}");
+        let results = json["results"].as_object().unwrap();
+        let mut compared = 0;
+        for (key, v) in results {
+            if key.contains("seconds") {
+                continue;
+            }
+            let Some(v) = v.as_f64() else { continue };
+            assert_eq!(rows[&(k, key.clone())].1, v, "draw {k}, {key}");
+            compared += 1;
+        }
+        assert!(compared >= 10, "only {compared} results compared");
+    }
+    // The draws differ (round-off grows over 30 steps into the last digits of the deviations).
+    let v: Vec<f64> = (0..3).map(|k| rows[&(k, "ghia_v_rms".into())].1).collect();
+    assert!(v[0] != v[1] && v[1] != v[2], "{v:?}");
+    // The Markdown row is the statistics of the CSV's values.
+    let mean = v.iter().sum::<f64>() / 3.0;
+    let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / 2.0).sqrt();
+    let se = sd / 3f64.sqrt();
+    let min = v.iter().copied().fold(f64::INFINITY, f64::min);
+    let max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let md = std::fs::read_to_string(out.join("cavity_re100_ensemble.md")).unwrap();
+    let row = md
+        .lines()
+        .find(|l| l.starts_with("| ghia_v_rms |"))
+        .unwrap_or_else(|| panic!("{md}"));
+    let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+    assert_eq!(cells[2], "3", "{row}");
+    let close = |cell: &str, x: f64, digits: f64| {
+        let y: f64 = cell.parse().unwrap();
+        assert!(
+            (y - x).abs() <= x.abs() * digits,
+            "{row}: {cell} against {x:e}"
+        );
+    };
+    close(cells[3], mean, 1e-6);
+    close(cells[4], sd, 1e-3);
+    close(cells[5], se, 1e-3);
+    close(cells[6], min, 1e-6);
+    close(cells[7], max, 1e-6);
+    assert!(md.contains("3 of 3 draws completed"), "{md}");
+}
+
+#[test]
+fn bad_flags_are_input_errors_naming_the_flag() {
+    let scene = scene();
+    let scene = scene.to_str().unwrap();
+    for (flags, says) in [
+        (vec!["--perturbation", "0"], "--perturbation"),
+        (vec!["--perturbation", "nan"], "--perturbation"),
+        (vec!["--draws", "11", "--perturbation", "1e-6"], "--draws"),
+        (vec!["--dt", "-1"], "dt"),
+    ] {
+        let mut args = vec!["ensemble", scene, "--out", "/nonexistent/never-written"];
+        args.extend(flags.iter().copied());
+        let (code, text, _) = xtask(&args);
+        assert_eq!(code, Some(2), "{flags:?}: {text}");
+        assert!(text.contains(says), "{flags:?}: {text}");
+    }
+    // clap's own range check: at least two draws.
+    let (code, text, _) = xtask(&["ensemble", scene, "--draws", "1"]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("--draws"), "{text}");
+}
