@@ -71,6 +71,9 @@ pub struct Overrides {
     /// Declare particle shifting with this coefficient A (Lind et al. 2012).
     #[arg(long, allow_negative_numbers = true)]
     pub shifting: Option<f64>,
+    /// Override the steps between records (`[output] sample_every`).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub sample_every: Option<u64>,
 }
 
 fn named<T: serde::de::DeserializeOwned>(flag: &str, value: &str) -> Result<T, AppError> {
@@ -127,6 +130,9 @@ impl Overrides {
         }
         if let Some(a) = self.shifting {
             scene.effects.shifting = Some(ShiftingSpec { coefficient: a });
+        }
+        if let Some(n) = self.sample_every {
+            scene.output.sample_every = Some(usize::try_from(n).unwrap_or(usize::MAX));
         }
         scene
             .validate("the scene with the command-line overrides")

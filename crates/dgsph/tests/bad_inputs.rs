@@ -904,6 +904,11 @@ fn cases() -> Vec<Case> {
         ),
         ("frame-every 0", vec!["--frame-every", "0"], "frame-every"),
         (
+            "sample-every 0",
+            vec!["--sample-every", "0"],
+            "sample-every",
+        ),
+        (
             "tag escaping the output directory",
             vec!["--tag", "../../x"],
             "output name",

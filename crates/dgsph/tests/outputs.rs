@@ -116,6 +116,35 @@ fn mcap_and_run_record_read_back() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--sample-every N` sets the steps between records: every N-th step and the last, read from
+/// the CSV's step column (the drop scene records every step otherwise).
+#[test]
+fn sample_every_flag_sets_the_recorded_steps() {
+    let dir = scratch("sample-every");
+    let s = scene(&dir, "d", &DROP.replace("t_end = 6e-4", "t_end = 1e-3"));
+    for (flag, steps) in [
+        (None, vec![0, 1, 2, 3, 4, 5]),
+        (Some("2"), vec![0, 2, 4, 5]),
+        (Some("5"), vec![0, 5]),
+    ] {
+        let out = dir.join(format!("o{}", flag.unwrap_or("-")));
+        let mut args = vec!["run", s.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        if let Some(n) = flag {
+            args.extend(["--sample-every", n]);
+        }
+        let o = dgsph(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        let csv = std::fs::read_to_string(out.join("d_dg.csv")).unwrap();
+        let mut lines = csv.lines();
+        assert!(lines.next().unwrap().starts_with("step,"), "{csv}");
+        let got: Vec<u64> = lines
+            .map(|l| l.split(',').next().unwrap().parse().unwrap())
+            .collect();
+        assert_eq!(got, steps, "--sample-every {flag:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn exit_codes_tell_bad_input_failed_checks_and_failed_runs_apart() {
     let dir = scratch("exit");
