@@ -11,8 +11,9 @@
 //! memory (no frames, no records on disk). Writes `<tag>_ensemble.csv` (one row per draw,
 //! scheme and result: `scheme,draw,dt,status,result,value`) and `<tag>_ensemble.md` (per
 //! scheme and result: draws, mean, standard deviation, standard error of the mean, minimum,
-//! maximum) into `--out`. A draw whose run fails is listed with its error and left out of the
-//! statistics; the exit code is then 3 (`dgsph`'s "a run failed").
+//! maximum) into `--out`. The scene's checks are not evaluated: the ensemble reports values. A
+//! draw whose run fails is listed with its error and left out of the statistics; the exit code
+//! is then 3 (`dgsph`'s "a run failed"), otherwise 0.
 
 use crate::flags::EnsembleArgs;
 use anyhow::Context;
