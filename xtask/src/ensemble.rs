@@ -202,12 +202,22 @@ fn tables(
     let mut md = format!(
         "# Round-off ensemble: {tag}\n\n`cargo xtask ensemble {}` — {} draws, Δt = {:?} \
          (1 − k ε), ε = {:e}, k = 0 … {}. Statistics over the completed draws; SE is the \
-         standard error of the mean (SD/√n).\n\n",
+         standard error of the mean (SD/√n).\n\nThe scene as run ({} preset, command-line \
+         overrides applied): {}D, dx = {:?}, t_end = {:?}, kernel {}, solver {}, tolerance {}.\n\n",
         args.scene.display(),
         args.draws,
         scene.dt,
         args.perturbation,
         args.draws - 1,
+        args.preset.name(),
+        scene.dim,
+        scene.dx,
+        scene.t_end,
+        scene.kernel.name(),
+        scene.solver.name(),
+        scene
+            .solver_tolerance
+            .map_or_else(|| "the solver's default".to_string(), |t| format!("{t:e}")),
     );
     for &scheme in &scene.schemes {
         let mine: Vec<&Draw> = draws.iter().filter(|d| d.scheme == scheme.name()).collect();

@@ -139,6 +139,11 @@ fn draws_are_the_runs_at_their_time_steps_and_the_table_their_statistics() {
     close(cells[6], min, 1e-6);
     close(cells[7], max, 1e-6);
     assert!(md.contains("3 of 3 draws completed"), "{md}");
+    // The summary says what ran: the overrides are part of the scene it records.
+    assert!(
+        md.contains("full preset, command-line overrides applied): 2D, dx = 0.05, t_end = 0.3,"),
+        "{md}"
+    );
 }
 
 #[test]
