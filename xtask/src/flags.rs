@@ -27,6 +27,21 @@ pub enum Command {
     /// Run a scene N times with its time step changed at round-off and give each result's
     /// mean, spread and standard error over the draws.
     Ensemble(Box<EnsembleArgs>),
+    /// Compare two ensembles (`<tag>_ensemble.csv` files): each shared result's means, their
+    /// difference and the difference in standard errors.
+    EnsembleCompare(CompareArgs),
+}
+
+/// Flags of `cargo xtask ensemble-compare`.
+#[derive(Debug, clap::Args)]
+pub struct CompareArgs {
+    /// The base ensemble's CSV.
+    pub base: PathBuf,
+    /// The ensemble compared with it (differences are other − base).
+    pub other: PathBuf,
+    /// The Markdown table's file.
+    #[arg(long, default_value = "target/ensemble/compare.md")]
+    pub out: PathBuf,
 }
 
 /// Flags of `cargo xtask ensemble`.

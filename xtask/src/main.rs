@@ -8,12 +8,14 @@
 //! * `cargo xtask validate --sweep` runs the accuracy-against-cost sweep ([`sweep`]).
 //! * `cargo xtask dt-limit` finds each scheme's largest stable time step ([`dt_limit`]).
 //! * `cargo xtask ensemble SCENE` runs a scene over round-off-perturbed time steps and gives
-//!   each result's distribution ([`ensemble`]).
+//!   each result's distribution ([`ensemble`]); `cargo xtask ensemble-compare A.csv B.csv`
+//!   says whether two such distributions differ beyond their spread ([`ensemble_compare`]).
 //! * `cargo xtask run SCENE.toml` and `cargo xtask report DIR` are `dgsph run` and
 //!   `dgsph report`.
 
 mod dt_limit;
 mod ensemble;
+mod ensemble_compare;
 mod flags;
 mod sweep;
 mod validate;
@@ -33,6 +35,7 @@ fn main() -> ExitCode {
         flags::Command::Run(args) => dgsph::cli::run(&args),
         flags::Command::DtLimit(args) => dt_limit::run(&args),
         flags::Command::Ensemble(args) => ensemble::run(&args),
+        flags::Command::EnsembleCompare(args) => ensemble_compare::run(&args),
         flags::Command::Report(args) => dgsph::report::write(&args.dir)
             .map(|p| {
                 println!("report: {}", p.display());

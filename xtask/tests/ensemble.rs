@@ -144,6 +144,25 @@ fn draws_are_the_runs_at_their_time_steps_and_the_table_their_statistics() {
         md.contains("full preset, command-line overrides applied): 2D, dx = 0.05, t_end = 0.3,"),
         "{md}"
     );
+    // ensemble-compare reads the file as written: against itself, every result differs by 0.
+    let csv = out.join("cavity_re100_ensemble.csv");
+    let cmp = dir.join("self.md");
+    let (code, text, _) = xtask(&[
+        "ensemble-compare",
+        csv.to_str().unwrap(),
+        csv.to_str().unwrap(),
+        "--out",
+        cmp.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{text}");
+    let cmp = std::fs::read_to_string(cmp).unwrap();
+    let row = compare_row(&cmp, "dg", "ghia_v_rms");
+    assert_eq!((row[3].as_str(), row[5].as_str()), ("3", "3"), "{row:?}");
+    assert_eq!(
+        row[4].parse::<f64>().unwrap(),
+        row[6].parse::<f64>().unwrap()
+    );
+    assert_eq!(row[9], "+0.00", "{row:?}");
 }
 
 #[test]
@@ -166,4 +185,102 @@ fn bad_flags_are_input_errors_naming_the_flag() {
     let (code, text, _) = xtask(&["ensemble", scene, "--draws", "1"]);
     assert_eq!(code, Some(2), "{text}");
     assert!(text.contains("--draws"), "{text}");
+}
+
+/// A Markdown table row of `ensemble-compare`'s output, by scheme and result, as cells.
+fn compare_row(md: &str, scheme: &str, result: &str) -> Vec<String> {
+    let row = md
+        .lines()
+        .find(|l| l.starts_with(&format!("| {scheme} | {result} |")))
+        .unwrap_or_else(|| panic!("no row {scheme}/{result} in\n{md}"));
+    row.split('|').map(|c| c.trim().to_string()).collect()
+}
+
+#[test]
+fn compare_gives_the_difference_of_means_in_standard_errors() {
+    let dir = scratch("ensemble-compare");
+    let base = dir.join("base_ensemble.csv");
+    let other = dir.join("other_ensemble.csv");
+    // base: dg/a = 1, 2, 3 (and a failed draw, left out); dg/b = 10, 14; euler/a only here.
+    std::fs::write(
+        &base,
+        "scheme,draw,dt,status,result,value\n\
+         dg,0,0.01,completed,a,1.0\ndg,0,0.01,completed,b,10.0\n\
+         dg,1,0.01,completed,a,2.0\ndg,1,0.01,completed,b,14.0\n\
+         dg,2,0.01,completed,a,3.0\n\
+         dg,3,0.01,failed,a,1e9\n\
+         euler,0,0.01,completed,a,5.0\n",
+    )
+    .unwrap();
+    // other: dg/a = 2, 3, 4; dg/b one draw, 18.
+    std::fs::write(
+        &other,
+        "scheme,draw,dt,status,result,value\n\
+         dg,0,0.01,completed,a,2.0\ndg,1,0.01,completed,a,3.0\ndg,2,0.01,completed,a,4.0\n\
+         dg,0,0.01,completed,b,18.0\n",
+    )
+    .unwrap();
+    let out = dir.join("cmp.md");
+    let (code, text, _) = xtask(&[
+        "ensemble-compare",
+        base.to_str().unwrap(),
+        other.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{text}");
+    let md = std::fs::read_to_string(&out).unwrap();
+    // dg/a: means 2 and 3 over 3 draws each (SD 1): z = 1 / √(2/3).
+    let a = compare_row(&md, "dg", "a");
+    assert_eq!((a[3].as_str(), a[5].as_str()), ("3", "3"), "{a:?}");
+    assert_eq!(a[4].parse::<f64>().unwrap(), 2.0);
+    assert_eq!(a[6].parse::<f64>().unwrap(), 3.0);
+    assert_eq!(a[7].parse::<f64>().unwrap(), 1.0);
+    assert_eq!(a[8], "+50.0 %");
+    assert_eq!(a[9], format!("{:+.2}", 1.0 / (2.0f64 / 3.0).sqrt()));
+    // dg/b: a single draw (18) against 10, 14 (mean 12, SD √8): z = 6 / (√8 √1.5).
+    let b = compare_row(&md, "dg", "b");
+    assert_eq!((b[3].as_str(), b[5].as_str()), ("2", "1"), "{b:?}");
+    assert_eq!(
+        b[9],
+        format!("{:+.2}", 6.0 / (8.0f64.sqrt() * 1.5f64.sqrt()))
+    );
+    // euler/a is in one file only: not compared.
+    assert!(!md.contains("| euler |"), "{md}");
+    assert!(
+        text.contains("| dg | a |"),
+        "the table is printed too: {text}"
+    );
+
+    // Bad inputs: exit 2 naming the file (and line).
+    let bad = dir.join("bad_ensemble.csv");
+    std::fs::write(
+        &bad,
+        "scheme,draw,dt,status,result,value\ndg,0,0.01,completed,a,x\n",
+    )
+    .unwrap();
+    let unrelated = dir.join("unrelated_ensemble.csv");
+    std::fs::write(
+        &unrelated,
+        "scheme,draw,dt,status,result,value\npc,0,0.01,completed,z,1\n",
+    )
+    .unwrap();
+    let missing = dir.join("missing.csv");
+    for (b, o, says) in [
+        (&bad, &other, format!("{}:2", bad.display())),
+        (&base, &missing, missing.display().to_string()),
+        (&base, &unrelated, "share no".to_string()),
+        (&out, &other, format!("{}:1", out.display())),
+    ] {
+        let (code, text, _) = xtask(&[
+            "ensemble-compare",
+            b.to_str().unwrap(),
+            o.to_str().unwrap(),
+            "--out",
+            dir.join("never.md").to_str().unwrap(),
+        ]);
+        assert_eq!(code, Some(2), "{text}");
+        assert!(text.contains(&says), "{says}: {text}");
+    }
+    assert!(!dir.join("never.md").exists());
 }
