@@ -10,7 +10,8 @@
 //!   other `n ≥ 2` draws with mean `x̄` and SD `s`: `z = ±(x − x̄) / (s √(1 + 1/n))` — how far
 //!   the single draw lies from the distribution's mean in units of a new draw's spread (its
 //!   prediction SD), signed `other − base`;
-//! * both single draws: no `z` (no spread is known).
+//! * both single draws: no `z` (no spread is known); sides without spread (every draw equal)
+//!   give no `z` when they agree and `±inf` when they differ.
 //!
 //! Draws marked `failed` are left out. Writes the Markdown table to `--out` (default
 //! `target/ensemble/compare.md`) and prints it; exits 0, or 2 naming the file and line when a
@@ -85,6 +86,29 @@ pub struct Row {
     pub z: f64,
 }
 
+impl Row {
+    /// The difference relative to the base mean, in per cent; "—" when the base mean is 0
+    /// (a count that stayed 0, say) or not a number.
+    pub fn relative_cell(&self) -> String {
+        let rel = 100.0 * self.diff / self.mean_base.abs();
+        if rel.is_finite() {
+            format!("{rel:+.1} %")
+        } else {
+            "—".into()
+        }
+    }
+
+    /// `z` to two decimals; "—" when no spread is known (NaN: single draws on both sides, or
+    /// equal constant values); `±inf` when both sides are constant and differ.
+    pub fn z_cell(&self) -> String {
+        if self.z.is_nan() {
+            "—".into()
+        } else {
+            format!("{:+.2}", self.z)
+        }
+    }
+}
+
 /// Compares the finite values of one result.
 pub fn compare_values(base: &[f64], other: &[f64]) -> Row {
     let (b, o) = (stats(base), stats(other));
@@ -128,18 +152,14 @@ pub fn run(args: &CompareArgs) -> Result<u8, AppError> {
         let r = compare_values(b, o);
         let _ = writeln!(
             md,
-            "| {scheme} | {result} | {} | {:.6e} | {} | {:.6e} | {:+.3e} | {:+.1} % | {} |",
+            "| {scheme} | {result} | {} | {:.6e} | {} | {:.6e} | {:+.3e} | {} | {} |",
             r.n_base,
             r.mean_base,
             r.n_other,
             r.mean_other,
             r.diff,
-            100.0 * r.diff / r.mean_base.abs(),
-            if r.z.is_finite() {
-                format!("{:+.2}", r.z)
-            } else {
-                "—".into()
-            }
+            r.relative_cell(),
+            r.z_cell()
         );
     }
     if shared == 0 {
@@ -188,5 +208,26 @@ mod tests {
         // Non-finite values are not draws.
         let t = compare_values(&[1.0, f64::NAN, 2.0, 3.0], &[4.0]);
         assert_eq!(t, r);
+    }
+
+    #[test]
+    fn cells_without_a_scale_or_a_spread_say_so() {
+        // A count that stayed 0 on both sides: no relative difference, no spread.
+        let zero = compare_values(&[0.0, 0.0], &[0.0, 0.0]);
+        assert_eq!(
+            (zero.relative_cell(), zero.z_cell()),
+            ("—".into(), "—".into())
+        );
+        // Constant on both sides and different: a difference no spread explains.
+        let apart = compare_values(&[5.0, 5.0], &[6.0, 6.0]);
+        assert_eq!(
+            (apart.relative_cell(), apart.z_cell()),
+            ("+20.0 %".into(), "+inf".into())
+        );
+        let r = compare_values(&[1.0, 2.0, 3.0], &[2.0, 3.0, 4.0]);
+        assert_eq!(
+            (r.relative_cell(), r.z_cell()),
+            ("+50.0 %".into(), "+1.22".into())
+        );
     }
 }
