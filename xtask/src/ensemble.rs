@@ -25,6 +25,9 @@ use sph_cases::registry;
 use sph_cases::run::{MemorySink, RunControl};
 use std::fmt::Write as _;
 
+/// The header of `<tag>_ensemble.csv`, written here and read by `ensemble-compare`.
+pub const CSV_HEADER: &str = "scheme,draw,dt,status,result,value";
+
 /// Largest total relative change of the time step over the draws, `(N − 1) ε`.
 const MAX_SPREAD: f64 = 1e-6;
 
@@ -190,7 +193,7 @@ fn tables(
     args: &EnsembleArgs,
     scene: &sph_cases::Scene,
 ) -> (String, String) {
-    let mut csv = String::from("scheme,draw,dt,status,result,value\n");
+    let mut csv = format!("{CSV_HEADER}\n");
     for d in draws {
         let status = if d.failure.is_some() {
             "failed"

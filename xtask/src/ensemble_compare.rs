@@ -18,7 +18,7 @@
 //! file cannot be read or a row is malformed. It judges nothing: `|z|` below about 2 is a
 //! difference the draws do not resolve.
 
-use crate::ensemble::stats;
+use crate::ensemble::{CSV_HEADER, stats};
 use crate::flags::CompareArgs;
 use anyhow::{Context, anyhow};
 use dgsph::session::{AppError, exit};
@@ -36,11 +36,10 @@ pub fn read(path: &Path) -> Result<Ensemble, AppError> {
         .map_err(AppError::Input)?;
     let mut lines = text.lines().enumerate();
     match lines.next() {
-        Some((_, "scheme,draw,dt,status,result,value")) => {}
+        Some((_, header)) if header == CSV_HEADER => {}
         other => {
             return Err(AppError::Input(anyhow!(
-                "{}:1: not an ensemble CSV: expected the header \
-                 `scheme,draw,dt,status,result,value`, found {:?}",
+                "{}:1: not an ensemble CSV: expected the header `{CSV_HEADER}`, found {:?}",
                 path.display(),
                 other.map(|(_, l)| l).unwrap_or_default()
             )));
