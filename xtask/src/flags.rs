@@ -30,6 +30,32 @@ pub enum Command {
     /// Compare two ensembles (`<tag>_ensemble.csv` files): each shared result's means, their
     /// difference and the difference in standard errors.
     EnsembleCompare(CompareArgs),
+    /// Time two commands in alternation (A, B, A, B, …) and give each side's wall and step
+    /// times, the ratio B/A and the load before each run.
+    Interleave(InterleaveArgs),
+}
+
+/// Flags of `cargo xtask interleave`.
+#[derive(Debug, clap::Args)]
+pub struct InterleaveArgs {
+    /// Command A, run by `sh -c` (e.g. `RAYON_NUM_THREADS=1 target/release/dgsph run …`).
+    #[arg(long)]
+    pub a: String,
+    /// Command B, run by `sh -c`; ratios are B/A.
+    #[arg(long)]
+    pub b: String,
+    /// Pairs of runs (A then B, this many times).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub pairs: u32,
+    /// A's name in the table and its log files' names.
+    #[arg(long, default_value = "A")]
+    pub label_a: String,
+    /// B's name in the table and its log files' names.
+    #[arg(long, default_value = "B")]
+    pub label_b: String,
+    /// Directory of the logs, `interleave.csv` and `interleave.md`.
+    #[arg(long, default_value = "target/interleave")]
+    pub out: PathBuf,
 }
 
 /// Flags of `cargo xtask ensemble-compare`.

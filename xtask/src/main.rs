@@ -10,6 +10,8 @@
 //! * `cargo xtask ensemble SCENE` runs a scene over round-off-perturbed time steps and gives
 //!   each result's distribution ([`ensemble`]); `cargo xtask ensemble-compare A.csv B.csv`
 //!   says whether two such distributions differ beyond their spread ([`ensemble_compare`]).
+//! * `cargo xtask interleave --a CMD --b CMD` times two commands in alternation and gives the
+//!   ratio of their times with the load before each run ([`interleave`]).
 //! * `cargo xtask run SCENE.toml` and `cargo xtask report DIR` are `dgsph run` and
 //!   `dgsph report`.
 
@@ -17,6 +19,7 @@ mod dt_limit;
 mod ensemble;
 mod ensemble_compare;
 mod flags;
+mod interleave;
 mod sweep;
 mod validate;
 
@@ -36,6 +39,7 @@ fn main() -> ExitCode {
         flags::Command::DtLimit(args) => dt_limit::run(&args),
         flags::Command::Ensemble(args) => ensemble::run(&args),
         flags::Command::EnsembleCompare(args) => ensemble_compare::run(&args),
+        flags::Command::Interleave(args) => interleave::run(&args),
         flags::Command::Report(args) => dgsph::report::write(&args.dir)
             .map(|p| {
                 println!("report: {}", p.display());
