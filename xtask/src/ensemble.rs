@@ -5,17 +5,17 @@
 //! draw from a distribution, and two codes (or settings) are compared by their distributions,
 //! not by one draw each.
 //!
-//! Draw `k = 0, 1, …, N − 1` runs the scene with the time step `Δt (1 − k ε)` (default
-//! `ε = 1e-14`, a change far below any discretisation error). Every draw ends at the scene's
-//! end time: when its full steps fall short of it by more than `1e-9 Δt` (from about `k ε n >
-//! 1e-9`, `n` steps: k ≥ 7 for the 16 000 steps of the Re 400 cavity) the run adds a last
-//! step of that length, as any run whose end time is not a whole number of steps does. Every scheme of the scene is run in every draw, in
-//! memory (no frames, no records on disk). Writes `<tag>_ensemble.csv` (one row per draw,
-//! scheme and result: `scheme,draw,dt,status,result,value`) and `<tag>_ensemble.md` (per
-//! scheme and result: draws, mean, standard deviation, standard error of the mean, minimum,
-//! maximum) into `--out`. The scene's checks are not evaluated: the ensemble reports values. A
-//! draw whose run fails is listed with its error and left out of the statistics; the exit code
-//! is then 3 (`dgsph`'s "a run failed"), otherwise 0.
+//! Draw `k = 0, 1, …, N − 1` runs the scene with the time step `Δt (1 − k ε)` (default `ε = 1e-14`,
+//! a change far below any discretisation error). Every draw ends at the scene's end time: when its
+//! full steps fall short of it by more than `1e-9 Δt` (from about `k ε n > 1e-9`, `n` steps: k ≥ 7
+//! for the 16 000 steps of the Re 400 cavity) the run adds a last step of that length, as any run
+//! whose end time is not a whole number of steps does. Every scheme of the scene is run in every
+//! draw, in memory (no frames, no records on disk). Writes `<tag>_ensemble.csv` (one row per draw,
+//! scheme and result: `scheme,draw,dt,status,result,value`) and `<tag>_ensemble.md` (per scheme and
+//! result: draws, mean, standard deviation, standard error of the mean, minimum, maximum) into
+//! `--out`. The scene's checks are not evaluated: the ensemble reports values. A draw whose run
+//! fails is listed with its error and left out of the statistics; the exit code is then 3
+//! (`dgsph`'s "a run failed"), otherwise 0.
 
 use crate::flags::EnsembleArgs;
 use anyhow::Context;

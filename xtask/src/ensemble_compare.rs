@@ -173,7 +173,7 @@ pub fn run(args: &CompareArgs) -> Result<u8, AppError> {
             .with_context(|| format!("creating {}", dir.display()))
             .map_err(AppError::Output)?;
     }
-    std::fs::write(&args.out, &md)
+    dgsph::output::write_atomic(&args.out, md.as_bytes())
         .with_context(|| format!("writing {}", args.out.display()))
         .map_err(AppError::Output)?;
     print!("{md}");

@@ -139,12 +139,8 @@ fn ratios(runs: &[Run], f: impl Fn(&Run) -> Option<f64>) -> (String, String, Str
         .collect();
     let range = match pairs {
         Some(p) if !p.is_empty() => {
-            let (lo, hi) = p
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                    (l.min(x), h.max(x))
-                });
-            format!("{lo:.3} – {hi:.3}")
+            let s = stats(&p);
+            format!("{:.3} – {:.3}", s.min, s.max)
         }
         _ => "—".to_string(),
     };
@@ -190,14 +186,11 @@ pub fn markdown(runs: &[Run], labels: [&str; 2], commands: [&str; 2]) -> String 
     }
     let loads: Vec<f64> = runs.iter().filter_map(|r| r.load1).collect();
     if !loads.is_empty() {
-        let (lo, hi) = loads
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                (l.min(x), h.max(x))
-            });
+        let s = stats(&loads);
         let _ = writeln!(
             md,
-            "\nOne-minute load average before the runs: {lo:.2} – {hi:.2}."
+            "\nOne-minute load average before the runs: {:.2} – {:.2}.",
+            s.min, s.max
         );
     }
     md
