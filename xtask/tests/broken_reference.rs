@@ -2,32 +2,23 @@
 //! malformed reference is an error naming the file and line. Runs the real binary on the
 //! prescribed-ellipse case (a fraction of a second) with `--references DIR`.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+
+use common::{run, scratch, xtask_command};
+use std::path::Path;
 
 const SLOPES: &str = include_str!("../../cases/reference/volume_slopes.csv");
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("dgsph-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 fn validate(refs: &Path, out: &Path) -> (Option<i32>, String) {
     let cases = Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases");
-    let o = Command::new(env!("CARGO_BIN_EXE_xtask"))
+    let (code, text, _) = run(xtask_command()
         .args(["validate", "--case", "prescribed_ellipse", "--cases"])
         .arg(&cases)
         .arg("--references")
         .arg(refs)
         .arg("--out")
-        .arg(out)
-        .output()
-        .unwrap();
-    let text =
-        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
-    (o.status.code(), text)
+        .arg(out));
+    (code, text)
 }
 
 /// The 2D Euler row at Δt = 1.25e-4 with its predicted slope replaced by `value`.

@@ -3,29 +3,14 @@
 //! CSV's values (recomputed here from the file); bad flags are typed input errors (exit 2).
 //! The 20² Re 100 cavity to t = 0.3 (30 steps of DG, a fraction of a second per draw).
 
+mod common;
+
+use common::{scratch, xtask};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("dgsph-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn scene() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/cavity_re100.toml")
-}
-
-fn xtask(args: &[&str]) -> (Option<i32>, String, Output) {
-    let o = Command::new(env!("CARGO_BIN_EXE_xtask"))
-        .args(args)
-        .output()
-        .unwrap();
-    let text =
-        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
-    (o.status.code(), text, o)
 }
 
 /// CSV rows `scheme,draw,dt,status,result,value`, as (draw, dt, result) → value.

@@ -3,25 +3,9 @@
 //! command printed; the logs hold each command's output; a failing command stops the series
 //! with exit 2 naming the run, and leaves the runs before it in the CSV.
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("dgsph-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn xtask(args: &[&str]) -> (Option<i32>, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_xtask"))
-        .args(args)
-        .output()
-        .unwrap();
-    let text =
-        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
-    (o.status.code(), text)
-}
+use common::{scratch, xtask};
 
 /// CSV rows as (run, side, label, wall, s/step, figures).
 fn rows(dir: &std::path::Path) -> Vec<(usize, String, String, f64, String, usize)> {
@@ -51,7 +35,7 @@ fn rows(dir: &std::path::Path) -> Vec<(usize, String, String, f64, String, usize
 fn runs_alternate_and_the_table_gives_the_ratio_of_the_printed_step_times() {
     let dir = scratch("interleave");
     let out = dir.join("ab");
-    let (code, text) = xtask(&[
+    let (code, text, _) = xtask(&[
         "interleave",
         "--a",
         "echo 'fast  iters/step 6.0  0.0200 s/step  5e5 particle-steps/s'",
@@ -118,7 +102,7 @@ fn runs_alternate_and_the_table_gives_the_ratio_of_the_printed_step_times() {
 fn a_failing_command_stops_the_series_and_keeps_the_runs_before_it() {
     let dir = scratch("interleave-fail");
     let out = dir.join("ab");
-    let (code, text) = xtask(&[
+    let (code, text, _) = xtask(&[
         "interleave",
         "--a",
         "echo '0.01 s/step'",
@@ -138,7 +122,7 @@ fn a_failing_command_stops_the_series_and_keeps_the_runs_before_it() {
     let log = std::fs::read_to_string(out.join("run-2-B.log")).unwrap();
     assert!(log.contains("about to fail"), "{log}");
 
-    let (code, text) = xtask(&[
+    let (code, text, _) = xtask(&[
         "interleave",
         "--a",
         "true",
@@ -151,7 +135,7 @@ fn a_failing_command_stops_the_series_and_keeps_the_runs_before_it() {
     ]);
     assert_eq!(code, Some(2), "{text}");
     assert!(text.contains("label \"x/y\""), "{text}");
-    let (code, text) = xtask(&[
+    let (code, text, _) = xtask(&[
         "interleave",
         "--a",
         "true",

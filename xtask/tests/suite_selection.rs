@@ -3,29 +3,20 @@
 //! scene that is selected fails the run as bad input (exit 2) with the summary still written.
 //! Also: a known failure declared in a scene is reported and does not fail the validation.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+
+use common::{run, scratch, xtask_command};
+use std::path::Path;
 
 const ELLIPSE: &str = include_str!("../../cases/prescribed_ellipse.toml");
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("dgsph-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 fn validate(cases: &Path, case: &str, out: &Path) -> (Option<i32>, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_xtask"))
+    let (code, text, _) = run(xtask_command()
         .args(["validate", "--case", case, "--cases"])
         .arg(cases)
         .arg("--out")
-        .arg(out)
-        .output()
-        .unwrap();
-    let text =
-        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
-    (o.status.code(), text)
+        .arg(out));
+    (code, text)
 }
 
 #[test]
