@@ -191,8 +191,8 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
         }
     }
     std::fs::create_dir_all(&args.out)
-        .and_then(|()| std::fs::write(args.out.join("dt_limit.md"), &md))
-        .and_then(|()| std::fs::write(args.out.join("dt_limit.csv"), &csv))
+        .and_then(|()| dgsph::output::write_atomic(&args.out.join("dt_limit.md"), md.as_bytes()))
+        .and_then(|()| dgsph::output::write_atomic(&args.out.join("dt_limit.csv"), csv.as_bytes()))
         .with_context(|| format!("writing into {}", args.out.display()))
         .map_err(AppError::Output)?;
     println!("{}", args.out.join("dt_limit.md").display());

@@ -173,7 +173,7 @@ pub fn run(args: &EnsembleArgs) -> Result<u8, AppError> {
         (format!("{tag}_ensemble.md"), &md),
     ] {
         let path = args.out.join(name);
-        std::fs::write(&path, text)
+        dgsph::output::write_atomic(&path, text.as_bytes())
             .with_context(|| format!("writing {}", path.display()))
             .map_err(AppError::Output)?;
         println!("wrote {}", path.display());

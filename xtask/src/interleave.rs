@@ -15,7 +15,9 @@
 //!
 //! Writes `interleave.csv` after every run (a run that fails leaves the earlier ones on disk)
 //! and `interleave.md` at the end, and prints the table. A command that exits with a failure
-//! status, or cannot be started, stops the series: exit 2 naming the run, its label and log.
+//! status, or cannot be started, stops the series: exit 3 (a failed run, as `dgsph run` and
+//! `xtask ensemble` use it) with a message naming the run, its label and log. A bad label is
+//! bad input (exit 2).
 
 use crate::ensemble::stats;
 use crate::flags::InterleaveArgs;
@@ -230,12 +232,16 @@ pub fn run(args: &InterleaveArgs) -> Result<u8, AppError> {
             .with_context(|| format!("creating {}", log_path.display()))
             .map_err(AppError::Output)?;
         let load = load1();
-        let (wall_s, text) = run_one(command, log, &log_path).map_err(|e| {
-            AppError::Input(anyhow!(
-                "run {n} ({side}, {label}): {e:#}; see {}",
-                log_path.display()
-            ))
-        })?;
+        let (wall_s, text) = match run_one(command, log, &log_path) {
+            Ok(done) => done,
+            Err(e) => {
+                eprintln!(
+                    "error: run {n} ({side}, {label}): {e:#}; see {}",
+                    log_path.display()
+                );
+                return Ok(exit::RUN_FAILED);
+            }
+        };
         let times = step_times(&text);
         let r = Run {
             run: n,

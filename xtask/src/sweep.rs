@@ -435,9 +435,11 @@ fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
         }
     }
     let csv_path = out.join("sweep.csv");
-    std::fs::write(&csv_path, csv).with_context(|| format!("writing {}", csv_path.display()))?;
+    dgsph::output::write_atomic(&csv_path, csv.as_bytes())
+        .with_context(|| format!("writing {}", csv_path.display()))?;
     let md_path = out.join("sweep.md");
-    std::fs::write(&md_path, md).with_context(|| format!("writing {}", md_path.display()))?;
+    dgsph::output::write_atomic(&md_path, md.as_bytes())
+        .with_context(|| format!("writing {}", md_path.display()))?;
     println!("sweep: {} and {}", md_path.display(), csv_path.display());
     Ok(())
 }

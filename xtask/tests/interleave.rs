@@ -1,7 +1,8 @@
 //! `cargo xtask interleave` through the real binary, on shell commands whose output and
 //! duration are known: the runs alternate A, B, A, B; each run's step time is the figure its
 //! command printed; the logs hold each command's output; a failing command stops the series
-//! with exit 2 naming the run, and leaves the runs before it in the CSV.
+//! with exit 3 (a failed run) naming the run, and leaves the runs before it in the CSV; a bad
+//! label exits 2 (bad input).
 
 mod common;
 
@@ -107,11 +108,11 @@ fn a_failing_command_stops_the_series_and_keeps_the_runs_before_it() {
         "--a",
         "echo '0.01 s/step'",
         "--b",
-        "echo 'about to fail'; exit 3",
+        "echo 'about to fail'; exit 5",
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert_eq!(code, Some(2), "{text}");
+    assert_eq!(code, Some(3), "a failed run exits 3: {text}");
     assert!(
         text.contains("run 2 (B, B)") && text.contains("run-2-B.log"),
         "the error names the run and its log: {text}"

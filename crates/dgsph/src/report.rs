@@ -436,7 +436,8 @@ pub fn write(dir: &Path) -> anyhow::Result<PathBuf> {
         figures(dir, name, group, &mut md)?;
     }
     let path = dir.join("report.md");
-    std::fs::write(&path, md).with_context(|| format!("writing {}", path.display()))?;
+    crate::output::write_atomic(&path, md.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))?;
     Ok(path)
 }
 
