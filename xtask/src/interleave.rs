@@ -232,16 +232,12 @@ pub fn run(args: &InterleaveArgs) -> Result<u8, AppError> {
             .with_context(|| format!("creating {}", log_path.display()))
             .map_err(AppError::Output)?;
         let load = load1();
-        let (wall_s, text) = match run_one(command, log, &log_path) {
-            Ok(done) => done,
-            Err(e) => {
-                eprintln!(
-                    "error: run {n} ({side}, {label}): {e:#}; see {}",
-                    log_path.display()
-                );
-                return Ok(exit::RUN_FAILED);
-            }
-        };
+        let (wall_s, text) = run_one(command, log, &log_path).map_err(|e| {
+            AppError::Run(anyhow!(
+                "run {n} ({side}, {label}): {e:#}; see {}",
+                log_path.display()
+            ))
+        })?;
         let times = step_times(&text);
         let r = Run {
             run: n,

@@ -51,10 +51,7 @@ fn main() -> ExitCode {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::from(match e {
-                AppError::Input(_) => exit::BAD_INPUT,
-                AppError::Output(_) => exit::OUTPUT_FAILED,
-            })
+            ExitCode::from(e.exit_code())
         }
     }
 }

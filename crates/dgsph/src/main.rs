@@ -55,10 +55,7 @@ fn main() -> ExitCode {
         Ok(c) => ExitCode::from(c),
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::from(match e {
-                AppError::Input(_) => exit::BAD_INPUT,
-                AppError::Output(_) => exit::OUTPUT_FAILED,
-            })
+            ExitCode::from(e.exit_code())
         }
     }
 }

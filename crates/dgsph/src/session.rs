@@ -17,6 +17,8 @@ use std::time::Instant;
 pub enum AppError {
     /// Bad input: a malformed or invalid scene, a bad flag, an unusable checkpoint (exit 2).
     Input(anyhow::Error),
+    /// A run the command started failed, and the command stopped there (exit 3).
+    Run(anyhow::Error),
     /// Results could not be written (exit 4).
     Output(anyhow::Error),
 }
@@ -24,13 +26,24 @@ pub enum AppError {
 impl std::fmt::Display for AppError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            AppError::Input(e) => write!(f, "{e:#}"),
+            AppError::Input(e) | AppError::Run(e) => write!(f, "{e:#}"),
             AppError::Output(e) => write!(f, "writing results: {e:#}"),
         }
     }
 }
 
 impl std::error::Error for AppError {}
+
+impl AppError {
+    /// The exit code this error maps to ([`exit`]).
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            AppError::Input(_) => exit::BAD_INPUT,
+            AppError::Run(_) => exit::RUN_FAILED,
+            AppError::Output(_) => exit::OUTPUT_FAILED,
+        }
+    }
+}
 
 /// Exit codes of `dgsph` and `cargo xtask validate`.
 pub mod exit {
