@@ -12,6 +12,7 @@
 
 use anyhow::Context;
 use dgsph::report::{Series, line_plot};
+use dgsph::session::AppError;
 use sph_cases::Scene;
 use sph_cases::reference::References;
 use sph_cases::registry;
@@ -195,13 +196,21 @@ fn pareto(points: &[&Point]) -> Vec<usize> {
 }
 
 /// Runs the sweep (only the `studies` named, if any) and writes its outputs into `out`.
-pub fn run(cases: &Path, out: &Path, refs: &References, studies: &[String]) -> anyhow::Result<()> {
+pub fn run(
+    cases: &Path,
+    out: &Path,
+    refs: &References,
+    studies: &[String],
+) -> Result<(), AppError> {
     let wanted = |s: &str| studies.is_empty() || studies.iter().any(|w| w == s);
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    // Its scenes are input (exit 2); only the directory and the files are output (exit 4).
     let drop_scene = dgsph::session::load_scene(&cases.join("elliptical_drop.toml"))
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        .map_err(|e| AppError::Input(anyhow::anyhow!("{e}")))?;
     let cavity_scene = dgsph::session::load_scene(&cases.join("cavity_re100.toml"))
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        .map_err(|e| AppError::Input(anyhow::anyhow!("{e}")))?;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("creating {}", out.display()))
+        .map_err(AppError::Output)?;
     let mut points = Vec::new();
     let mut progress = |p: Point| {
         println!(
@@ -293,7 +302,7 @@ pub fn run(cases: &Path, out: &Path, refs: &References, studies: &[String]) -> a
             }
         }
     }
-    write_outputs(out, &points)
+    write_outputs(out, &points).map_err(AppError::Output)
 }
 
 /// Solver tolerances of the tolerance study.

@@ -66,7 +66,7 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
         Suite::Hard => PathBuf::from("cases/hard"),
     });
     if args.sweep {
-        crate::sweep::run(&cases_dir, &args.out, &refs, &args.study).map_err(AppError::Output)?;
+        crate::sweep::run(&cases_dir, &args.out, &refs, &args.study)?;
         return Ok(exit::OK);
     }
     let wants = |name: &str| args.case.as_deref().is_none_or(|c| name.contains(c));

@@ -1,6 +1,7 @@
 //! `cargo xtask validate --sweep --study dt` through the real binary (the elliptical drop at
 //! four time steps and three schemes, a few seconds): `sweep.csv` and `sweep.md` are written
-//! whole, agree with each other row for row, and no temporary file is left beside them.
+//! whole, agree with each other row for row, and no temporary file is left beside them; a
+//! missing scene is bad input (exit 2) naming it, not a failure to write results.
 
 mod common;
 
@@ -73,4 +74,26 @@ fn the_dt_sweep_writes_a_csv_and_a_table_that_agree() {
         .filter(|n| n.ends_with(".tmp"))
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+#[test]
+fn a_missing_sweep_scene_is_bad_input_naming_it() {
+    let dir = scratch("sweep-missing");
+    let (code, text, _) = xtask(&[
+        "validate",
+        "--sweep",
+        "--study",
+        "dt",
+        "--cases",
+        dir.to_str().unwrap(),
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(2), "a missing scene is bad input: {text}");
+    assert!(text.contains("elliptical_drop.toml"), "{text}");
+    assert!(!text.contains("writing results"), "{text}");
+    assert!(
+        !dir.join("out").exists(),
+        "nothing is created before the input is read"
+    );
 }
