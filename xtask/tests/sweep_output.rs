@@ -8,10 +8,9 @@ mod common;
 use common::{scratch, xtask};
 use std::path::Path;
 
-#[test]
-fn the_dt_sweep_writes_a_csv_and_a_table_that_agree() {
-    let out = scratch("sweep-dt");
-    let cases = Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases");
+/// `xtask validate --sweep --study dt` on the scenes in `cases`, into `out`: exit code and
+/// output.
+fn dt_sweep(cases: &Path, out: &Path) -> (Option<i32>, String) {
     let (code, text, _) = xtask(&[
         "validate",
         "--sweep",
@@ -22,6 +21,16 @@ fn the_dt_sweep_writes_a_csv_and_a_table_that_agree() {
         "--out",
         out.to_str().unwrap(),
     ]);
+    (code, text)
+}
+
+#[test]
+fn the_dt_sweep_writes_a_csv_and_a_table_that_agree() {
+    let out = scratch("sweep-dt");
+    let (code, text) = dt_sweep(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases"),
+        &out,
+    );
     assert_eq!(code, Some(0), "{text}");
 
     let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
@@ -79,16 +88,7 @@ fn the_dt_sweep_writes_a_csv_and_a_table_that_agree() {
 #[test]
 fn a_missing_sweep_scene_is_bad_input_naming_it() {
     let dir = scratch("sweep-missing");
-    let (code, text, _) = xtask(&[
-        "validate",
-        "--sweep",
-        "--study",
-        "dt",
-        "--cases",
-        dir.to_str().unwrap(),
-        "--out",
-        dir.join("out").to_str().unwrap(),
-    ]);
+    let (code, text) = dt_sweep(&dir, &dir.join("out"));
     assert_eq!(code, Some(2), "a missing scene is bad input: {text}");
     assert!(text.contains("elliptical_drop.toml"), "{text}");
     assert!(!text.contains("writing results"), "{text}");
