@@ -109,10 +109,10 @@ impl Overrides {
             scene.solver_tolerance = Some(t);
         }
         if let Some(th) = self.div_r_threshold {
-            let scan = scene.free_surface.and_then(|f| f.scan);
+            let spec = scene.free_surface.unwrap_or_default();
             scene.free_surface = Some(FreeSurfaceSpec {
                 div_r_threshold: Some(th),
-                scan,
+                ..spec
             });
         }
         if let Some(h) = &self.dg_hessian {
@@ -129,7 +129,18 @@ impl Overrides {
             }
         }
         if let Some(a) = self.shifting {
-            scene.effects.shifting = Some(ShiftingSpec { coefficient: a });
+            // A scene's other shifting keys stay as declared; only the coefficient changes.
+            scene.effects.shifting = Some(match scene.effects.shifting {
+                Some(spec) => ShiftingSpec {
+                    coefficient: a,
+                    ..spec
+                },
+                None => ShiftingSpec {
+                    coefficient: a,
+                    velocity: Default::default(),
+                    velocity_correction: None,
+                },
+            });
         }
         if let Some(n) = self.sample_every {
             scene.output.sample_every = Some(usize::try_from(n).unwrap_or(usize::MAX));

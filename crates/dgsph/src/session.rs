@@ -299,7 +299,9 @@ pub fn run_scene(
                     anyhow::Error::from(e).context(format!("run {run}")),
                 ));
             }
-            Err(e @ (CaseError::Measure { .. } | CaseError::Step { .. })) => {
+            Err(
+                e @ (CaseError::Measure { .. } | CaseError::Step { .. } | CaseError::Settle(_)),
+            ) => {
                 eprintln!(
                     "  {run}: FAILED: {e} (rows so far in {})",
                     files.csv_path().display()

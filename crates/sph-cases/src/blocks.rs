@@ -195,6 +195,17 @@ pub struct OutputSpec {
     pub vtk: bool,
 }
 
+/// `[start]`: how the initial state is prepared before the clock starts.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartSpec {
+    /// Settle the initial state with this many steps of the scheme before `t = 0`, each ending
+    /// with the fluid's velocities set to zero (dynamic relaxation): a disordered or rough start
+    /// (`jitter`) relaxes to mechanical equilibrium, and the run starts from rest in it with the
+    /// settled pressure. Nothing is recorded while settling. Default 0 (none).
+    pub settle_steps: Option<usize>,
+}
+
 /// `[limits]`: what a scene may allocate and how a blow-up is recognised.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -272,11 +283,14 @@ pub fn face_index(name: &str) -> Option<(usize, bool)> {
 #[serde(deny_unknown_fields)]
 pub struct FreeSurfaceSpec {
     /// `∇·r` below which a particle is on the free surface (Dirichlet `p = 0`). Default 0.75 d
-    /// (1.5 in 2D, the paper's Ref. [17]; 2.25 in 3D).
+    /// (1.5 in 2D, the paper's Ref. \[17\]; 2.25 in 3D).
     pub div_r_threshold: Option<f64>,
     /// Also flag particles whose umbrella region outside them is empty (Marrone et al. 2010).
     /// Default: on for `flow` scenes, off for the paper's drops (the paper uses `∇·r` alone).
     pub scan: Option<bool>,
+    /// Put `p = 0` half a particle spacing outside the free-surface particles, where a
+    /// lattice's fluid ends (a Robin row), instead of at them (the paper's Dirichlet rows).
+    pub extrapolate: Option<bool>,
 }
 
 /// The pressure-gradient form of the velocity correction.

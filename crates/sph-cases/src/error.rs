@@ -36,6 +36,9 @@ pub enum CaseError {
     /// A checkpoint does not fit the scene.
     #[error("resuming: {0}")]
     Resume(String),
+    /// A step of the initial settling (`[start] settle_steps`) failed.
+    #[error("settling the initial state ([start] settle_steps): {0}")]
+    Settle(String),
     /// The initial particle set is invalid.
     #[error("case setup: {0}")]
     Setup(#[from] CoreError),

@@ -12,14 +12,14 @@
 //! |---|---|---|---|
 //! | `flow` | [`flow`] | what the scene declares | the scene's `[[check]]`s |
 //! | `dam_break` | [`dam_break`] | gravity, free surface, walls | Martin & Moyce (1952) |
-//! | `elliptical_drop` / `spheroid_drop` | [`drop`] | free surface | exact drop solution |
+//! | `elliptical_drop` / `spheroid_drop` | [`drop`](mod@drop) | free surface | exact drop solution |
 //! | `prescribed_ellipse` / `prescribed_ellipsoid` | [`prescribed`] | none (prescribed u) | exact slopes |
 //! | `lid_driven_cavity` | [`cavity`] | walls, lid, viscosity (+ shifting) | Ghia et al. (1982) |
 //! | kernels, operators | [`foundation`] | — | exact |
 //!
 //! The library does no I/O: the `dgsph` binary reads scenes and writes results, receiving
 //! everything through a [`run::RunSink`]. Reference data is embedded at compile time from
-//! `cases/reference/` ([`reference`]).
+//! `cases/reference/` ([`reference`](mod@reference)).
 //!
 //! Start with [`registry::parse_scene`] and [`registry::run_scheme`].
 

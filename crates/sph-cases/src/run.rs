@@ -129,6 +129,23 @@ pub fn common_columns() -> Vec<Column> {
             "",
             "fluid particles the walls' guard stopped from crossing a wall in the last step",
         ),
+        Column::new(
+            "energy_explicit",
+            "energy",
+            "change of the fluid's kinetic energy by the explicit forces (gravity, viscosity) in \
+             the last step",
+        ),
+        Column::new(
+            "energy_projection",
+            "energy",
+            "change of the fluid's kinetic energy by the pressure projection in the last step",
+        ),
+        Column::new(
+            "energy_regularisation",
+            "energy",
+            "change of the fluid's kinetic energy by shifting's velocity correction and the \
+             walls' guard in the last step",
+        ),
         Column::new("step_seconds", "s", "wall time of the last step"),
         Column::new(
             "density_error",
@@ -290,6 +307,9 @@ fn common_values<D: Dim>(
         det.map_or(nan, |d| d.max),
         r(&|r| r.max_displacement),
         r(&|r| r.wall_guarded as f64),
+        r(&|r| r.energy.explicit),
+        r(&|r| r.energy.projection),
+        r(&|r| r.energy.regularisation),
         r(&|r| r.seconds),
         interior_density_error(sim, lattice),
     ]);
@@ -315,6 +335,31 @@ struct Tally {
     iterations: f64,
     steps: usize,
     phases: PhaseTimes,
+}
+
+/// The scene's `[start] settle_steps`: that many steps of the scheme at the scene's `dt`, each
+/// followed by setting the fluid's velocities to zero, then the clock reset to `t = 0`, step 0.
+/// The particles keep their settled positions and pressures. A failed settling step is an
+/// error of the run's setup (`CaseError::Settle`).
+fn settle<D: Dim>(
+    scene: &Scene,
+    case: &mut Box<dyn Case<D>>,
+    sim: &mut Simulation<D>,
+    integrator: &mut Scheme,
+) -> Result<(), CaseError> {
+    let steps = scene.start.settle_steps.unwrap_or(0);
+    if steps == 0 {
+        return Ok(());
+    }
+    let nf = sim.fluid_len();
+    for _ in 0..steps {
+        case.advance(sim, integrator, scene.dt)
+            .map_err(|e| CaseError::Settle(e.to_string()))?;
+        sim.particles.velocities[..nf].fill(D::Vector::ZERO);
+    }
+    sim.t = 0.0;
+    sim.step = 0;
+    Ok(())
 }
 
 /// Runs `scheme` of `scene` with `case` to `scene.t_end`, handing records, tables and
@@ -385,6 +430,10 @@ pub fn run_scheme<D: Dim>(
         records += 1;
         Ok(())
     };
+    let mut integrator = Scheme::new(scheme);
+    if control.resume.is_none() {
+        settle(scene, &mut case, &mut sim, &mut integrator)?;
+    }
     case.start(&sim)?;
     if let Some(c) = control.resume {
         sim.restore(c)
@@ -409,7 +458,6 @@ pub fn run_scheme<D: Dim>(
             }
         }
     }
-    let mut integrator = Scheme::new(scheme);
     let mut tally = Tally {
         penetrations: sim.wall_penetrations(),
         intrusion: sim.wall_intrusion(),

@@ -29,12 +29,12 @@
 use crate::CaseError;
 use crate::blocks::{
     CheckSpec, DiagnosticKind, DomainSpec, FluidBlock, FluidShape, FreeSurfaceSpec, GradientChoice,
-    LimitsSpec, OutputSpec, PressureSpec, WallBlock, WallKind, axis_index, face_index,
+    LimitsSpec, OutputSpec, PressureSpec, StartSpec, WallBlock, WallKind, axis_index, face_index,
 };
 use serde::{Deserialize, Serialize};
 use sph_integrators::{
-    Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, SchemeKind, Shifting, SimConfig,
-    Viscosity, WallCondition,
+    Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, SchemeKind, ShiftScale, ShiftVelocity,
+    Shifting, SimConfig, Viscosity, WallCondition,
 };
 use sph_kernels::KernelKind;
 use sph_operators::HessianForm;
@@ -152,6 +152,14 @@ fn one() -> f64 {
 pub struct ShiftingSpec {
     /// Lind et al.'s `A` (they use 2).
     pub coefficient: f64,
+    /// The speed scaling the shift: `"local"` (`|u_i|`, the default) or `"max"` (the largest
+    /// fluid speed, Sun et al. 2017).
+    #[serde(default)]
+    pub velocity: ShiftScale,
+    /// How the velocity follows the shift: `"taylor"` (Xu et al. 2009's correction; the default
+    /// of the paper's cases), `"limited"` (that correction kept within the range of the
+    /// neighbours' velocities; the default of `flow` and `dam_break` scenes) or `"none"`.
+    pub velocity_correction: Option<ShiftVelocity>,
 }
 
 /// Explicit effects a scene declares (`[effects]`). Absent ones are not computed.
@@ -244,7 +252,7 @@ pub struct Scene {
     #[serde(default)]
     pub dg_hessian: DgHessianChoice,
     /// Renumber the fluid particles in cell order every this many steps (`0`: never). Default
-    /// [`DEFAULT_REORDER_EVERY`]. See [`SimConfig::reorder_every`].
+    /// `DEFAULT_REORDER_EVERY` (20). See [`SimConfig::reorder_every`].
     pub reorder_every: Option<usize>,
     /// Lid-driven cavity parameters (required by, and only allowed for, `lid_driven_cavity`).
     pub cavity: Option<CavitySpec>,
@@ -268,6 +276,9 @@ pub struct Scene {
     /// Allocation bounds and the blow-up limit.
     #[serde(default)]
     pub limits: LimitsSpec,
+    /// How the initial state is prepared (settling).
+    #[serde(default)]
+    pub start: StartSpec,
     /// Pass criteria on the run's results, declared before the run.
     #[serde(default)]
     pub check: Vec<CheckSpec>,
@@ -344,6 +355,7 @@ impl Scene {
             free_surface: Some(FreeSurfaceSpec {
                 div_r_threshold: Some(FreeSurface::default_for(case.dim()).div_r_threshold),
                 scan: None,
+                extrapolate: None,
             }),
             pressure: PressureSpec::default(),
             solver: SolverKind::default(),
@@ -359,6 +371,7 @@ impl Scene {
             wall: Vec::new(),
             output: OutputSpec::default(),
             limits: LimitsSpec::default(),
+            start: StartSpec::default(),
             check: Vec::new(),
             quick: None,
         }
@@ -406,6 +419,11 @@ impl Scene {
                 .div_r_threshold
                 .unwrap_or(FreeSurface::default_for(self.dim).div_r_threshold),
             scan: f.scan.unwrap_or(flow),
+            zero_pressure_depth: if f.extrapolate.unwrap_or(false) {
+                0.5 * self.dx
+            } else {
+                0.0
+            },
         });
         let gradient = self.pressure.gradient.unwrap_or(if flow {
             GradientChoice::Symmetric
@@ -430,6 +448,12 @@ impl Scene {
             gravity: self.effects.gravity,
             shifting: self.effects.shifting.map(|s| Shifting {
                 coefficient: s.coefficient,
+                scale: s.velocity,
+                velocity_correction: s.velocity_correction.unwrap_or(if flow {
+                    ShiftVelocity::Limited
+                } else {
+                    ShiftVelocity::Taylor
+                }),
                 spacing: self.dx,
             }),
         };
@@ -774,6 +798,16 @@ impl Validator<'_> {
             return self.bad(
                 "pressure.consistent_laplacian",
                 "needs renormalisation (pressure.renormalise = true)",
+            );
+        }
+        if c.free_surface.is_some_and(|f| f.zero_pressure_depth > 0.0)
+            && !(c.renormalise && c.gradient == sph_operators::GradientForm::Difference)
+        {
+            return self.bad(
+                "free_surface.extrapolate",
+                "needs the renormalised difference gradient (pressure.gradient = \"difference\", \
+                 pressure.renormalise = true): the surface pressures are no longer 0, and the \
+                 symmetric form would add 2 p_i Σ V_j ∇W_ij where the kernel support is cut",
             );
         }
         if s.solver_tolerance

@@ -10,7 +10,7 @@ use sph_pressure::{SolveParams, SolverKind};
 #[serde(deny_unknown_fields)]
 pub struct FreeSurface {
     /// `∇·r` threshold. Bulk values are `d` (2 or 3); a flat face gives ≈ 0.6 d–0.68 d.
-    /// Defaults: 1.5 in 2D (Lee et al. 2008; the paper's Ref. [17]) and 2.25 = 0.75 d in 3D,
+    /// Defaults: 1.5 in 2D (Lee et al. 2008; the paper's Ref. \[17\]) and 2.25 = 0.75 d in 3D,
     /// the same fraction of the bulk value. Lower thresholds flag fewer particles (p = 0 sits
     /// closer to the true surface) but may miss surface particles at convex tips.
     pub div_r_threshold: f64,
@@ -19,6 +19,12 @@ pub struct FreeSurface {
     /// neighbourhood lifts above the `∇·r` threshold. Default `false` (the paper's `∇·r` alone).
     #[serde(default)]
     pub scan: bool,
+    /// Where `p = 0` is imposed: at the free-surface particles (`0`, the paper's Dirichlet
+    /// rows) or this distance outside them along the surface normal (a Robin row
+    /// `p_i + δ n_i·∇p_i = 0`, see `sph_pressure::assemble_surface_rows`; `Δx/2` puts it where
+    /// a lattice's fluid ends). Default 0.
+    #[serde(default)]
+    pub zero_pressure_depth: f64,
 }
 
 impl FreeSurface {
@@ -27,6 +33,7 @@ impl FreeSurface {
         Self {
             div_r_threshold: 0.75 * dim as f64,
             scan: false,
+            zero_pressure_depth: 0.0,
         }
     }
 }
@@ -54,6 +61,38 @@ pub struct Shifting {
     pub coefficient: f64,
     /// Initial particle spacing `Δp` used in the anti-clumping term.
     pub spacing: f64,
+    /// Which speed scales the diffusion coefficient `D = A h U Δt`.
+    pub scale: ShiftScale,
+    /// How the velocity follows the shift.
+    pub velocity_correction: ShiftVelocity,
+}
+
+/// How a shifted particle's velocity is carried to its new position.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShiftVelocity {
+    /// The Taylor correction `u_i += (∇u)_i δr_i` (Xu et al. 2009).
+    #[default]
+    Taylor,
+    /// The Taylor correction, each component limited to the range of the particle's and its
+    /// neighbours' velocities, so the interpolation creates no new extremum.
+    Limited,
+    /// None: the particle keeps its velocity.
+    None,
+}
+
+/// The speed `U` in the shifting coefficient `D = A h U Δt`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShiftScale {
+    /// The particle's own speed `|u_i|` (Skillen et al. 2013; Lind et al. 2012): no shifting
+    /// where the fluid is at rest.
+    #[default]
+    Local,
+    /// The largest fluid speed of the step, `max_j |u_j|`, for every particle (Sun et al. 2017,
+    /// δ⁺-SPH: `CFL · Ma = U_max Δt / h`): stagnation points and slow cores are regularised
+    /// as strongly as the fast parts of the flow.
+    Max,
 }
 
 /// Explicit terms of the momentum equation and particle regularisation. Each is computed only

@@ -9,7 +9,7 @@
 //! | [`DgIsph`] | `(Δt²/ρ) cof(A):∇∇p = det A − 1` | `xⁿ` | `xⁿ⁺¹ = xⁿ + Δt uⁿ⁺¹` | Algorithm 1 |
 //!
 //! All three share one [`Simulation`] (particles, kernel, neighbour search, solver, scratch) and
-//! one projection ([`projection`]): neighbours → renormalisation → free-surface flags →
+//! one projection (the `projection` module): neighbours → renormalisation → free-surface flags →
 //! assemble → solve (warm-started) → `uⁿ⁺¹ = u* − Δt ∇p/ρ`. So a comparison between schemes is
 //! like for like. Every step returns a [`StepReport`] (solver statistics, max |∇·u|, det F
 //! statistics) or a [`StepError`] naming what failed and where.
@@ -32,11 +32,12 @@ mod walls;
 
 pub use checkpoint::{Checkpoint, RestoreError};
 pub use config::{
-    Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, Shifting, SimConfig, Viscosity,
+    Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, ShiftScale, ShiftVelocity, Shifting,
+    SimConfig, Viscosity,
 };
 pub use error::StepError;
 pub use frame::Frame;
-pub use report::{DetFStats, Phase, PhaseTimes, StepReport};
+pub use report::{DetFStats, EnergyBudget, Phase, PhaseTimes, StepReport};
 pub use schemes::{DgIsph, EulerIsph, Integrator, PredictorCorrectorIsph, Scheme, SchemeKind};
 pub use simulation::Simulation;
 pub use time_step::TimeStep;

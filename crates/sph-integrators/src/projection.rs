@@ -16,7 +16,8 @@ use sph_operators::{
     gradient, invariants, velocity_gradient,
 };
 use sph_pressure::{
-    CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_wall_rows,
+    CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_surface_rows,
+    assemble_wall_rows,
 };
 use std::time::Instant;
 
@@ -90,7 +91,11 @@ pub(crate) fn prepare<D: Dim>(
         *v = m / rho;
     }
     let ctx = engine_context!(e, x);
-    let fallbacks = if e.config.renormalise {
+    let robin_rows = e
+        .config
+        .free_surface
+        .is_some_and(|f| f.zero_pressure_depth > 0.0);
+    let fallbacks = if e.config.renormalise || robin_rows {
         correction_matrices(
             &ctx,
             MIN_CORRECTION_DET,
@@ -168,6 +173,17 @@ pub(crate) fn project<D: Dim>(
         }
         None => u_star,
     };
+    // Robin surface rows: the surface pressures stay unknowns, the bulk rows keep their columns.
+    let robin = e
+        .config
+        .free_surface
+        .map_or(0.0, |f| f.zero_pressure_depth)
+        .max(0.0);
+    let flags: &[bool] = if robin > 0.0 {
+        &e.no_dirichlet
+    } else {
+        &e.dirichlet
+    };
     let clock = Instant::now();
     match equation {
         Equation::Ppe => {
@@ -184,7 +200,7 @@ pub(crate) fn project<D: Dim>(
                 densities,
                 &e.source,
                 dt,
-                &e.dirichlet,
+                flags,
                 consistent,
                 nf,
                 &mut e.matrix,
@@ -210,7 +226,7 @@ pub(crate) fn project<D: Dim>(
                 &e.source,
                 dt,
                 e.config.dg_hessian,
-                &e.dirichlet,
+                flags,
                 consistent,
                 nf,
                 &mut e.matrix,
@@ -226,9 +242,24 @@ pub(crate) fn project<D: Dim>(
             .map_err(|source| StepError::Assembly { step, t, source })?;
         phases.add(Phase::Assembly, clock);
     }
-    for (p, d) in pressures.iter_mut().zip(&e.dirichlet) {
-        if *d {
-            *p = 0.0;
+    if robin > 0.0 {
+        let clock = Instant::now();
+        assemble_surface_rows(
+            &ctx,
+            &e.dirichlet,
+            &e.corrections,
+            robin,
+            nf,
+            &mut e.matrix,
+            &mut e.rhs,
+        )
+        .map_err(|source| StepError::Assembly { step, t, source })?;
+        phases.add(Phase::Assembly, clock);
+    } else {
+        for (p, d) in pressures.iter_mut().zip(&e.dirichlet) {
+            if *d {
+                *p = 0.0;
+            }
         }
     }
     let system = CsrSystem {

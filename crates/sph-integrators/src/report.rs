@@ -133,6 +133,19 @@ impl PhaseTimes {
     }
 }
 
+/// Changes of the fluid's kinetic energy in one step, by cause (see [`StepReport::energy`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EnergyBudget {
+    /// `½ Σ m (|u*|² − |uⁿ|²)`: gravity and viscosity.
+    pub explicit: f64,
+    /// `½ Σ m (|u_proj|² − |u*|²)`: the pressure projection. An orthogonal projection
+    /// (gradient the negative adjoint of the divergence, and the matching Laplacian) never
+    /// makes it positive.
+    pub projection: f64,
+    /// `½ Σ m (|uⁿ⁺¹|² − |u_proj|²)`: shifting's velocity correction and the walls' guard.
+    pub regularisation: f64,
+}
+
 /// What one time step did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StepReport {
@@ -166,6 +179,11 @@ pub struct StepReport {
     /// Fluid particles whose displacement would have crossed a wall and was cut short (the
     /// walls' guard; 0 when the wall condition held them).
     pub wall_guarded: usize,
+    /// The fluid's kinetic energy `½ Σ m |u|²` split by what changed it in this step: the
+    /// explicit forces (`u* − uⁿ`: gravity, viscosity), the projection (`u_proj − u*`) and the
+    /// particle regularisation (shifting's velocity correction and the walls' guard). Their sum
+    /// is the step's change of kinetic energy.
+    pub energy: EnergyBudget,
     /// Which passes ran and how long each took.
     pub phases: PhaseTimes,
     /// Wall time of the whole step in seconds.

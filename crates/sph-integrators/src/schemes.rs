@@ -3,7 +3,9 @@
 use crate::projection::{Equation, det_f_stats, first_non_finite, prepare, project};
 use crate::report::{Phase, PhaseTimes};
 use crate::simulation::{Buffers, Engine, engine_context};
-use crate::{Shifting, Simulation, StepError, StepReport, Walls};
+use crate::{
+    EnergyBudget, ShiftScale, ShiftVelocity, Shifting, Simulation, StepError, StepReport, Walls,
+};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sph_core::Dim;
@@ -161,6 +163,7 @@ struct ShiftBuffers<'a, D: Dim> {
     grad_c: &'a mut [D::Vector],
     grad_u: &'a mut [D::Matrix],
     u_new: &'a mut [D::Vector],
+    u_old: &'a mut [D::Vector],
     disp: &'a mut [D::Vector],
 }
 
@@ -174,10 +177,25 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
         let ctx = engine_context!(e, x, k);
         shifting_gradients(&ctx, sh.spacing, b.u_new, l, grad_c, grad_u);
     });
+    if sh.velocity_correction == ShiftVelocity::Limited {
+        b.u_old[..nf].copy_from_slice(&b.u_new[..nf]);
+    }
+    // The velocities before any correction (the limiter's range).
+    let u_old = &*b.u_old;
     let h = e.config.h;
     let cap = MAX_SHIFT * sh.spacing;
     let free = e.config.free_surface.is_some();
     let (grad_c, grad_u) = (&*grad_c, &*grad_u);
+    // δ⁺ scaling: the largest fluid speed (a maximum: the same in any order).
+    let u_max = match sh.scale {
+        ShiftScale::Local => 0.0,
+        ShiftScale::Max => b.u_new[..nf]
+            .par_iter()
+            .with_min_len(4096)
+            .map(|u| u.length_squared())
+            .reduce(|| 0.0, f64::max)
+            .sqrt(),
+    };
     // Each particle on its own: in parallel, and the same bits for any number of threads.
     b.disp[..nf]
         .par_iter_mut()
@@ -186,15 +204,24 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
         .with_min_len(1024)
         .for_each(|(i, (disp, u_new))| {
             let g = grad_c[i];
-            let mut dr = g * (-sh.coefficient * h * u_new.length() * dt);
+            let speed = match sh.scale {
+                ShiftScale::Local => u_new.length(),
+                ShiftScale::Max => u_max,
+            };
+            let mut dr = g * (-sh.coefficient * h * speed * dt);
             // On a free surface only the part tangential to it is kept (Lind et al. 2012,
             // Sec. 3.3): the normal part of −∇C points out of the fluid and would spread the
             // surface. Particles below the surface keep the whole shift, which keeps them from
             // running into the surface layer (whose p = 0 cannot push them back).
             if free && e.dirichlet[i] {
-                let g2 = g.length_squared();
-                if g2 > 0.0 {
-                    dr -= g * (dr.dot(g) / g2);
+                // The normal of the truncated support, ν = Σ V_j ∇W_ij (without the
+                // anti-clumping term, so the shift keeps its tangential part).
+                let ctx = engine_context!(e, x);
+                let mut nu = D::Vector::ZERO;
+                ctx.for_each_pair(i, |p| nu += p.grad_w * ctx.volumes[p.j]);
+                let n2 = nu.length_squared();
+                if n2 > 0.0 {
+                    dr -= nu * (dr.dot(nu) / n2);
                 }
             }
             let len = dr.length();
@@ -205,7 +232,21 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
                 dr = w.limit_shift(x[i], dr);
             }
             *disp += dr;
-            *u_new += grad_u[i] * dr;
+            match sh.velocity_correction {
+                ShiftVelocity::Taylor => *u_new += grad_u[i] * dr,
+                ShiftVelocity::None => {}
+                ShiftVelocity::Limited => {
+                    let (mut lo, mut hi) = (u_old[i], u_old[i]);
+                    for &j in e.neighbors.row(i) {
+                        if (j as usize) < nf {
+                            lo = lo.min(u_old[j as usize]);
+                            hi = hi.max(u_old[j as usize]);
+                        }
+                    }
+                    let v = *u_new + grad_u[i] * dr;
+                    *u_new = D::Vector::from_fn(|k| v.get(k).clamp(lo.get(k), hi.get(k)));
+                }
+            }
         });
 }
 
@@ -273,12 +314,14 @@ fn projection_passes<D: Dim>(
         dt,
         &mut phases,
     );
+    let nf = sim.engine.fluid;
+    let ke_n = kinetic_energy(&p.masses[..nf], &p.velocities[..nf]);
+    let ke_star = kinetic_energy(&p.masses[..nf], &sim.buf.u_star[..nf]);
     if viscous && rule == PositionRule::Predicted && det_f_wanted {
         // Keep the xⁿ lists for the det F diagnostics below.
         sim.engine.swap_saved();
         sim.engine.saved.valid = true;
     }
-    let nf = sim.engine.fluid;
     let x_eval = match rule {
         PositionRule::Current => &p.positions,
         PositionRule::Predicted => {
@@ -341,6 +384,7 @@ fn projection_passes<D: Dim>(
             particle,
         });
     }
+    let ke_proj = kinetic_energy(&p.masses[..nf], &sim.buf.u_new[..nf]);
     let half = 0.5 * dt;
     for ((d, u), un) in sim
         .buf
@@ -361,6 +405,7 @@ fn projection_passes<D: Dim>(
             grad_c: &mut sim.buf.grad_c,
             grad_u: &mut sim.buf.grad_u,
             u_new: &mut sim.buf.u_new,
+            u_old: &mut sim.buf.u_shift,
             disp: &mut sim.buf.disp,
         };
         shift(&sim.engine, bufs, x_eval, sh, dt);
@@ -374,6 +419,11 @@ fn projection_passes<D: Dim>(
         guard_walls(&sim.engine, p, &mut sim.buf.disp, &mut sim.buf.u_new)
     } else {
         0
+    };
+    let energy = EnergyBudget {
+        explicit: ke_star - ke_n,
+        projection: ke_proj - ke_star,
+        regularisation: kinetic_energy(&p.masses[..nf], &sim.buf.u_new[..nf]) - ke_proj,
     };
     let det_f = if det_f_wanted {
         let clock = Instant::now();
@@ -421,6 +471,7 @@ fn projection_passes<D: Dim>(
         wall_penetrations,
         max_displacement,
         wall_guarded,
+        energy,
         phases,
         seconds: t0.elapsed().as_secs_f64(),
     };
@@ -535,6 +586,15 @@ fn guard_walls<D: Dim>(
             }
         })
         .sum()
+}
+
+/// `½ Σ m |u|²`, summed in order (the same bits for any number of threads).
+fn kinetic_energy<V: VectorOps>(masses: &[f64], u: &[V]) -> f64 {
+    0.5 * masses
+        .iter()
+        .zip(u)
+        .map(|(m, u)| m * u.length_squared())
+        .sum::<f64>()
 }
 
 /// [`prepare`] at the particles' current positions `xⁿ`.

@@ -99,6 +99,8 @@ pub(crate) struct Engine<D: Dim> {
     pub(crate) corrections: Vec<D::Matrix>,
     pub(crate) div_r: Vec<f64>,
     pub(crate) dirichlet: Vec<bool>,
+    /// All `false`: the flags the assembly gets when the surface rows are Robin rows.
+    pub(crate) no_dirichlet: Vec<bool>,
     pub(crate) source: Vec<f64>,
     pub(crate) a: Vec<D::Matrix>,
     pub(crate) rhs: Vec<f64>,
@@ -180,6 +182,8 @@ pub(crate) struct Buffers<D: Dim> {
     /// Shifting: ∇C and ∇uⁿ⁺¹.
     pub(crate) grad_c: Vec<D::Vector>,
     pub(crate) grad_u: Vec<D::Matrix>,
+    /// Shifting: the velocities before the shift's correction (the limiter's range).
+    pub(crate) u_shift: Vec<D::Vector>,
 }
 
 // A simulation can be moved to and shared between threads.
@@ -223,6 +227,7 @@ impl<D: Dim> Simulation<D> {
             corrections: Vec::new(),
             div_r: Vec::new(),
             dirichlet: Vec::new(),
+            no_dirichlet: Vec::new(),
             source: Vec::new(),
             a: Vec::new(),
             rhs: Vec::new(),
@@ -257,6 +262,7 @@ impl<D: Dim> Simulation<D> {
             u_visc: Vec::new(),
             grad_c: Vec::new(),
             grad_u: Vec::new(),
+            u_shift: Vec::new(),
         };
         let mut order = Order::new();
         order.ensure(particles.len());
@@ -430,6 +436,7 @@ impl<D: Dim> Simulation<D> {
         e.corrections.resize(n, D::Matrix::IDENTITY);
         e.div_r.resize(n, 0.0);
         e.dirichlet.resize(n, false);
+        e.no_dirichlet.resize(n, false);
         e.source.resize(n, 0.0);
         e.a.resize(n, D::Matrix::IDENTITY);
         e.rhs.resize(n, 0.0);
@@ -455,6 +462,7 @@ impl<D: Dim> Simulation<D> {
         if fx.shifting.is_some() {
             b.grad_c.resize(n, D::Vector::ZERO);
             b.grad_u.resize(n, D::Matrix::IDENTITY);
+            b.u_shift.resize(n, D::Vector::ZERO);
         }
     }
 }

@@ -509,3 +509,55 @@ sph_core::dim_tests! {
         }
     }
 }
+
+fn kinetic<D: Dim>(sim: &Simulation<D>) -> f64 {
+    let n = sim.fluid_len();
+    let p = &sim.particles;
+    0.5 * p.masses[..n]
+        .iter()
+        .zip(&p.velocities[..n])
+        .map(|(m, u)| m * u.length_squared())
+        .sum::<f64>()
+}
+
+sph_core::dim_tests! {
+    /// The step's energy budget accounts for the whole change of kinetic energy: explicit
+    /// forces (gravity, viscosity), projection and regularisation (shifting with its velocity
+    /// correction) add up to `KEⁿ⁺¹ − KEⁿ`, for every scheme and every velocity correction.
+    fn energy_budget_adds_up_to_the_change_of_kinetic_energy<D>() {
+        for correction in [ShiftVelocity::Taylor, ShiftVelocity::Limited, ShiftVelocity::None] {
+            for kind in SchemeKind::ALL {
+                let (p, mut cfg) = drop::<D>();
+                cfg.effects = Effects {
+                    viscosity: Some(Viscosity { nu: 0.01 }),
+                    gravity: Some([0.0, -9.81, 0.0]),
+                    shifting: Some(Shifting {
+                        coefficient: 2.0,
+                        spacing: 0.05,
+                        scale: ShiftScale::Local,
+                        velocity_correction: correction,
+                    }),
+                };
+                let mut sim = Simulation::new(p, cfg).unwrap();
+                let mut scheme = Scheme::new(kind);
+                for _ in 0..3 {
+                    let before = kinetic(&sim);
+                    let r = scheme.step(&mut sim, 1e-4).unwrap();
+                    let change = kinetic(&sim) - before;
+                    let e = r.energy;
+                    let sum = e.explicit + e.projection + e.regularisation;
+                    assert!(
+                        (sum - change).abs() <= 1e-12 * before,
+                        "{kind:?} {correction:?}: {e:?} sums to {sum}, KE changed by {change}"
+                    );
+                    assert!(e.projection != 0.0 && e.explicit != 0.0, "{kind:?}: {e:?}");
+                    if correction == ShiftVelocity::None {
+                        assert_eq!(e.regularisation, 0.0, "{kind:?}: nothing but the shift moved u");
+                    } else {
+                        assert!(e.regularisation != 0.0, "{kind:?} {correction:?}: {e:?}");
+                    }
+                }
+            }
+        }
+    }
+}

@@ -10,7 +10,7 @@
 //!
 //! **The paper's 3D quintic constant is wrong.** Nair & Tomar (2015, below Eq. 27) print
 //! α₃ = 3/(359π) ≈ 2.6600e-3; the exact normalisation is 1/(120π) ≈ 2.6526e-3 (0.28 % smaller).
-//! The tests in [`quintic_spline`] integrate the kernel numerically and fail with the printed value.
+//! The tests of the `quintic_spline` module integrate the kernel numerically and fail with the printed value.
 //!
 //! Start with the [`Kernel`] trait; pick a kernel at run time with [`KernelKind`] and
 //! [`AnyKernel`]. Each kernel is a [`Radial`] kernel of a dimensionless [`Shape`] (support,

@@ -3,7 +3,7 @@ use sph_core::{Dim, VectorOps};
 use sph_kernels::Kernel;
 
 /// Free-surface indicator, the SPH divergence of the position vector (Lee et al. 2008; used by
-/// the free-surface model of Nair & Tomar 2014, the paper's Ref. [17]):
+/// the free-surface model of Nair & Tomar 2014, the paper's Ref. \[17\]):
 ///
 /// ```text
 /// ∇·r_i = Σ_j V_j (x_j − x_i)·∇W_ij

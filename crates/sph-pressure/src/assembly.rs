@@ -32,7 +32,7 @@ pub enum PressureRhs<'a> {
 /// `p_i = 0`, and their columns are dropped from the other rows, so the matrix is symmetric.
 ///
 /// With `consistent` (the renormalisation matrices `L_i`), the stencil is made exact for linear
-/// fields on any particle arrangement ([`linear_consistent`]); the matrix is then no longer
+/// fields on any particle arrangement (`linear_consistent`, below); the matrix is then no longer
 /// symmetric.
 ///
 /// Only rows `0..rows` are assembled (`rows = ctx.len()`: all); the matrix entries and
@@ -104,7 +104,7 @@ pub fn assemble_ppe<D: Dim, K: Kernel<D>>(
 /// PPE row, a check the tests make. See the crate docs for the sign. Returns the number of rows
 /// where the quadratic fit fell back to Eq. 25.
 ///
-/// With `consistent`, the stencil is made exact for linear fields ([`linear_consistent`]).
+/// With `consistent`, the stencil is made exact for linear fields (`linear_consistent`, below).
 ///
 /// Only rows `0..rows` are assembled (`rows = ctx.len()`: all); the matrix entries and
 /// right-hand side of the others are left as they are, for rows another equation writes (the

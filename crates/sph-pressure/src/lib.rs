@@ -46,4 +46,4 @@ pub use solver::{
     AnySolver, BiCgStab, Border, CsrSystem, GMRES_RESTART, Gmres, LinearSolver, Preconditioner,
     SolveInfo, SolveParams, SolverKind, SparseLu,
 };
-pub use walls::{MeanZeroGauge, assemble_wall_rows};
+pub use walls::{MeanZeroGauge, assemble_surface_rows, assemble_wall_rows};

@@ -193,3 +193,83 @@ impl MeanZeroGauge {
         Ok(info)
     }
 }
+
+/// Overwrites the rows of the free-surface particles (`surface[i]`, `i < rows`) with a Robin
+/// condition that puts `p = 0` a distance `depth` outside the particle instead of at it:
+///
+/// ```text
+/// p_i + depth · n_i·(∇p)_i = 0,    (∇p)_i = L_i Σ_j V_j (p_j − p_i) ∇W_ij,
+/// n_i = −ν_i/|ν_i|,   ν_i = L_i Σ_j V_j ∇W_ij
+/// ```
+///
+/// (`L_i` the renormalisation matrices, so the gradient is exact for linear pressures however
+/// truncated the support; `n_i` the outward normal of the truncated support). A particle of a
+/// lattice whose top row is at `y_s` represents fluid up to `y_s + Δx/2`: with `depth = Δx/2`
+/// a hydrostatic pressure `ρ g (y_s + Δx/2 − y)` solves these rows exactly, where the
+/// Dirichlet row `p_i = 0` shifts the whole column's pressure by `ρ g Δx/2`. A particle with a
+/// symmetric or empty neighbourhood (`ν_i = 0`) keeps `p_i = 0`. The surface pressures stay
+/// unknowns, so the other rows must keep their columns (assemble them without Dirichlet
+/// flags). The right-hand side of these rows is 0.
+pub fn assemble_surface_rows<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    surface: &[bool],
+    corrections: &[D::Matrix],
+    depth: f64,
+    rows: usize,
+    matrix: &mut CsrMatrix,
+    rhs: &mut [f64],
+) -> Result<(), PressureError> {
+    let nl = ctx.neighbors;
+    let n = ctx.len();
+    assert!(rows <= n && surface.len() >= rows && corrections.len() >= rows);
+    assert_eq!(matrix.values.len(), nl.nnz());
+    let offsets = &nl.offsets()[..=rows];
+    let values = &mut matrix.values[..offsets[rows]];
+    for_each_row_mut(offsets, values, &|i, row| {
+        if !surface[i] {
+            return;
+        }
+        row.fill(0.0);
+        let diag = nl
+            .row(i)
+            .binary_search(&(i as u32))
+            .expect("neighbour rows contain the particle");
+        let l = corrections[i];
+        let mut nu = D::Vector::ZERO;
+        ctx.for_each_pair(i, |p| nu += p.grad_w * ctx.volumes[p.j]);
+        let nu = l * nu;
+        let len = nu.length();
+        row[diag] = 1.0;
+        if !(len > 0.0 && len.is_finite()) {
+            return;
+        }
+        let n = nu * (-1.0 / len);
+        let mut sum = 0.0;
+        ctx.for_each_pair(i, |p| {
+            if p.j != i {
+                let a = depth * ctx.volumes[p.j] * n.dot(l * p.grad_w);
+                row[p.k] = a;
+                sum += a;
+            }
+        });
+        row[diag] = 1.0 - sum;
+    });
+    for (r, s) in rhs[..rows].iter_mut().zip(surface) {
+        if *s {
+            *r = 0.0;
+        }
+    }
+    let finite = values
+        .par_iter()
+        .with_min_len(1 << 14)
+        .all(|v| v.is_finite());
+    if finite {
+        Ok(())
+    } else {
+        let k = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
+        Err(PressureError::NonFinite {
+            what: "matrix entry",
+            row: offsets.partition_point(|&o| o <= k) - 1,
+        })
+    }
+}

@@ -842,3 +842,69 @@ sph_core::dim_tests! {
         }
     }
 }
+
+sph_core::dim_tests! {
+    /// The Robin surface rows put `p = 0` half a spacing outside the surface particles: on a
+    /// lattice block, for each face, the pressure `ρ g (x_f + Δx/2 − x)·n` that rises linearly
+    /// into the fluid from the plane half a spacing beyond the face's particles satisfies the
+    /// face particles' rows to round-off (the normal comes out of the truncated support, the
+    /// gradient is renormalised), and each row sums to 1 (`p = 1` gives 1: no row is singular).
+    /// With `depth = 0` the rows are the Dirichlet rows `p_i = 0`, which the same pressure misses
+    /// by `ρ g Δx/2`.
+    fn surface_rows_put_zero_pressure_half_a_spacing_outside<D>() {
+        use crate::assemble_surface_rows;
+        let per_side = if D::DIM == 2 { 12 } else { 8 };
+        let dx = 1.0 / per_side as f64;
+        let pts = lattice::<D>(per_side, dx);
+        let n = pts.len();
+        let kernel = QuinticSpline::<D>::new(1.3 * dx);
+        let mut grid = CellGrid::<D>::new();
+        grid.build(&pts, kernel.support_radius()).unwrap();
+        let mut nl = NeighborList::new();
+        grid.query(&pts, &mut nl);
+        let vols = vec![dx.powi(D::DIM as i32); n];
+        let ctx = SphContext::new(&pts, &vols, &nl, &kernel);
+        let mut l = vec![D::Matrix::ZERO; n];
+        sph_operators::correction_matrices(&ctx, 1e-6, f64::INFINITY, &mut l);
+        let (lo, hi) = (pts[0].get(0), pts[n - 1].get(0));
+        let rho_g = 9.81;
+        for axis in 0..D::DIM {
+            for upper in [false, true] {
+                // The face's particles, away from the block's edges (whose normal is oblique).
+                let face_coord = if upper { hi } else { lo };
+                let on_face = |x: &D::Vector| {
+                    (x.get(axis) - face_coord).abs() < 1e-9
+                        && (0..D::DIM).all(|k| k == axis || (x.get(k) > lo + 2.5 * dx && x.get(k) < hi - 2.5 * dx))
+                };
+                let surface: Vec<bool> = pts.iter().map(on_face).collect();
+                assert!(surface.iter().any(|s| *s));
+                let sign = if upper { 1.0 } else { -1.0 };
+                let p: Vec<f64> = pts
+                    .iter()
+                    .map(|x| rho_g * (sign * (face_coord - x.get(axis)) + 0.5 * dx))
+                    .collect();
+                for (depth, exact) in [(0.5 * dx, true), (0.0, false)] {
+                    let mut m = CsrMatrix::default();
+                    m.resize(nl.nnz());
+                    let mut rhs = vec![1.0; n];
+                    assemble_surface_rows(&ctx, &surface, &l, depth, n, &mut m, &mut rhs).unwrap();
+                    let mut y = vec![0.0; n];
+                    m.matvec(nl.offsets(), nl.indices(), &p, &mut y);
+                    let mut sums = vec![0.0; n];
+                    m.matvec(nl.offsets(), nl.indices(), &vec![1.0; n], &mut sums);
+                    for i in (0..n).filter(|&i| surface[i]) {
+                        assert_eq!(rhs[i], 0.0);
+                        assert!((sums[i] - 1.0).abs() < 1e-12, "row {i} sums to {}", sums[i]);
+                        if exact {
+                            assert!(y[i].abs() < 1e-10 * rho_g, "axis {axis} upper {upper}: residual {}", y[i]);
+                        } else {
+                            assert!((y[i] - 0.5 * rho_g * dx).abs() < 1e-12, "Dirichlet row: {}", y[i]);
+                        }
+                    }
+                    // Rows of other particles are left alone.
+                    assert!((0..n).filter(|&i| !surface[i]).all(|i| rhs[i] == 1.0));
+                }
+            }
+        }
+    }
+}
