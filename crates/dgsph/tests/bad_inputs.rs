@@ -837,6 +837,27 @@ fn cases() -> Vec<Case> {
             "pressure.consistent_laplacian",
         ),
         (
+            "surface pressure extrapolated with the symmetric gradient",
+            TANK,
+            "[free_surface]",
+            "[pressure]\ngradient = \"symmetric\"\n[free_surface]\nextrapolate = true",
+            "free_surface.extrapolate",
+        ),
+        (
+            "settle steps negative",
+            TANK,
+            "[free_surface]",
+            "[free_surface]\n[start]\nsettle_steps = -3",
+            "settle_steps",
+        ),
+        (
+            "unknown shift correction",
+            TANK,
+            "gravity = [0.0, -9.81, 0.0]",
+            "gravity = [0.0, -9.81, 0.0]\nshifting = { coefficient = 2.0, velocity_correction = \"quadratic\" }",
+            "quadratic",
+        ),
+        (
             "unknown gradient",
             TANK,
             "[free_surface]",
