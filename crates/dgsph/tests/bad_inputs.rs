@@ -837,6 +837,13 @@ fn cases() -> Vec<Case> {
             "pressure.consistent_laplacian",
         ),
         (
+            "open face named with a multi-byte character",
+            TANK,
+            "open = [\"+y\"]",
+            "open = [\"é+y\"]",
+            "open",
+        ),
+        (
             "surface pressure extrapolated with the symmetric gradient",
             TANK,
             "[free_surface]",

@@ -269,7 +269,10 @@ pub fn axis_index(name: &str) -> Option<usize> {
 
 /// `(axis, upper)` of a face name `"-x"`, `"+y"`, ...
 pub fn face_index(name: &str) -> Option<(usize, bool)> {
-    let (sign, axis) = name.split_at(name.len().min(1));
+    // Split after the first character, not the first byte: a face named with a multi-byte
+    // character ("é+y") is an unknown face, not a panic.
+    let cut = name.chars().next().map_or(0, char::len_utf8);
+    let (sign, axis) = name.split_at(cut);
     let upper = match sign {
         "+" => true,
         "-" => false,

@@ -11,8 +11,9 @@
 //! count), plus half a spacing (a particle's extent), so `Z = 1` at `T = 0`.
 //!
 //! Results: `front_error_max` and `front_error_rms` (relative, `|Z − Z_MM| / Z_MM`) over the
-//! records with `1.5 ≤ T ≤ 6` taken while the front is more than a column width from the far
-//! wall; `t_impact`, when the front first comes within half a spacing of the far wall (NaN if
+//! records with `2.5 ≤ T ≤ 6` taken while the front is more than a column width from the far
+//! wall; `front_error_early_max` over `1.5 ≤ T < 2.5`, where the experiment's gate and the air
+//! slow the real front (reported, not part of the comparison window); `t_impact`, when the front first comes within half a spacing of the far wall (NaN if
 //! it does not). Checks: the scene's `[[check]]` tables.
 
 use crate::case::{Case, Column, Finish, Setup};
@@ -20,10 +21,15 @@ use crate::flow::FlowCase;
 use crate::reference::References;
 use crate::{CaseError, Scene};
 use sph_core::{Dim, VectorOps};
-use sph_integrators::{Simulation, StepReport};
+use sph_integrators::{Scheme, Simulation, StepError, StepReport};
 
 /// Window of `T` over which the front is compared with the experiment.
-pub const T_WINDOW: (f64, f64) = (1.5, 6.0);
+pub const T_WINDOW: (f64, f64) = (2.5, 6.0);
+
+/// The early part of the surge, `1.5 ≤ T < 2.5`, reported on its own: single-phase
+/// simulations of this experiment lead it there (the gate is not lifted at once in the
+/// experiment, and the air slows the front; `cases/reference/README.md`).
+pub const T_EARLY: (f64, f64) = (1.5, 2.5);
 
 /// The dam-break case (see the module docs).
 pub struct DamBreakCase {
@@ -38,6 +44,8 @@ pub struct DamBreakCase {
     refs: References,
     /// `(T, relative error)` in the comparison window.
     errors: Vec<(f64, f64)>,
+    /// Largest `|error|` in the early window.
+    early_max: f64,
     t_impact: f64,
 }
 
@@ -79,6 +87,7 @@ impl DamBreakCase {
             far_wall,
             refs: refs.clone(),
             errors: Vec::new(),
+            early_max: f64::NAN,
             t_impact: f64::NAN,
         }
     }
@@ -131,6 +140,15 @@ impl<D: Dim> Case<D> for DamBreakCase {
         Case::<D>::start(&mut self.flow, sim)
     }
 
+    fn advance(
+        &mut self,
+        sim: &mut Simulation<D>,
+        scheme: &mut Scheme,
+        dt: f64,
+    ) -> Result<StepReport, StepError> {
+        Case::<D>::advance(&mut self.flow, sim, scheme, dt)
+    }
+
     fn observe(
         &mut self,
         sim: &Simulation<D>,
@@ -151,6 +169,9 @@ impl<D: Dim> Case<D> for DamBreakCase {
         if (T_WINDOW.0..=T_WINDOW.1).contains(&t_big) && free_run && error.is_finite() {
             self.errors.push((t_big, error));
         }
+        if (T_EARLY.0..T_EARLY.1).contains(&t_big) && free_run && error.is_finite() {
+            self.early_max = self.early_max.max(error.abs());
+        }
         out.extend_from_slice(&[front, t_big, z, z_ref, error]);
         Ok(())
     }
@@ -168,6 +189,8 @@ impl<D: Dim> Case<D> for DamBreakCase {
         };
         f.results.insert("front_error_max".into(), max);
         f.results.insert("front_error_rms".into(), rms);
+        f.results
+            .insert("front_error_early_max".into(), self.early_max);
         f.results.insert("front_points".into(), n as f64);
         f.results.insert("t_impact".into(), self.t_impact);
         f.results
@@ -177,9 +200,10 @@ impl<D: Dim> Case<D> for DamBreakCase {
 }
 
 /// The results a dam break reports besides the flow's and the run loop's.
-pub const RESULTS: [&str; 5] = [
+pub const RESULTS: [&str; 6] = [
     "front_error_max",
     "front_error_rms",
+    "front_error_early_max",
     "front_points",
     "t_impact",
     "T_impact",

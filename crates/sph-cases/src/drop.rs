@@ -71,6 +71,10 @@ pub struct DropCase {
     /// |ΔV/V₀| (second moments), and the first time the semi-axis error exceeded
     /// [`DEPARTURE`].
     worst_axis: f64,
+    /// The same over the records while the filament is resolved ([`RESOLVED_ACROSS`]), and
+    /// the last such record's time.
+    worst_resolved: f64,
+    t_resolved: f64,
     worst_volume: f64,
     departed: f64,
 }
@@ -78,6 +82,10 @@ pub struct DropCase {
 /// Relative semi-axis error (second moments) at which a long drop counts as departed from the
 /// exact solution.
 pub const DEPARTURE: f64 = 0.05;
+
+/// Particles across the exact drop's smallest diameter (`2 min(a, b) / dx`) down to which a
+/// stretched drop counts as resolved (`semi_axis_error_resolved_max`, `t_resolved`).
+pub const RESOLVED_ACROSS: f64 = 8.0;
 
 #[derive(Clone, Copy)]
 struct LastFull {
@@ -99,6 +107,8 @@ impl DropCase {
             initial: None,
             last_full: None,
             worst_axis: 0.0,
+            worst_resolved: 0.0,
+            t_resolved: f64::NAN,
             worst_volume: 0.0,
             departed: f64::NAN,
         }
@@ -202,6 +212,10 @@ impl<D: Dim> Case<D> for DropCase {
                 .abs()
                 .max((m.semi_axes[1] / exact.b - 1.0).abs());
             self.worst_axis = self.worst_axis.max(axis);
+            if 2.0 * exact.a.min(exact.b) / self.scene.dx >= RESOLVED_ACROSS {
+                self.worst_resolved = self.worst_resolved.max(axis);
+                self.t_resolved = sim.t;
+            }
             self.worst_volume = self.worst_volume.max((m.measure / m0 - 1.0).abs());
             if axis > DEPARTURE && self.departed.is_nan() {
                 self.departed = sim.t;
@@ -242,6 +256,8 @@ impl<D: Dim> Case<D> for DropCase {
                 ("semi_axis_error_max", self.worst_axis),
                 ("volume_change_max", self.worst_volume),
                 ("t_departure", self.departed),
+                ("semi_axis_error_resolved_max", self.worst_resolved),
+                ("t_resolved", self.t_resolved),
             ] {
                 results.insert(name.into(), v);
             }

@@ -7,13 +7,22 @@
 //! particles (fewer than three other fluid particles in the kernel support: fragmentation);
 //! for a Taylor–Green velocity field the kinetic energy against its exact decay
 //! `exp(−16π²νt/L²)`; for hydrostatic blocks the RMS pressure error against `ρ₀ |g| (top − z)`
-//! relative to `ρ₀ |g| H`. Checks: the scene's `[[check]]` tables, on the run loop's results
-//! (`max_wall_penetrations`, `reached_t`, `max_speed`, ...) and this case's ([`RESULTS`]).
+//! relative to `ρ₀ |g| H` (over the hydrostatic blocks' particles); the mechanical energy
+//! `KE + M |g| (h_c − h_min)`; the area of voids the fluid encloses ([`enclosed_void_area`]).
+//! Results ([`RESULTS`]) add the run's extremes: the largest isolated fraction and relative
+//! kinetic-energy change, the mechanical energy's largest rise over its start; for still water
+//! (all blocks hydrostatic) the largest speed over `√(gH)` and hydrostatic error once settled
+//! (after `t √(g/H)` = [`SETTLED_AFTER`]) and the largest level change in `dx`; for a pool
+//! (hydrostatic blocks) and fluid falling into it, when they first touch (`t_contact`) and the
+//! pool's largest speed over `√(gH)` before; for a box in rigid rotation, the centre pressure
+//! against the Poisson solution ([`rotating_rectangle_centre_pressure`]) after the first and
+//! after [`CENTRE_PRESSURE_STEP`] steps. Checks: the scene's `[[check]]` tables, on the run
+//! loop's results (`max_wall_penetrations`, `reached_t`, `max_speed`, ...) and these.
 
 use crate::case::{Case, Column, Finish, Results, Setup};
 use crate::{CaseError, Scene};
 use sph_core::{Dim, VectorOps};
-use sph_integrators::{Simulation, StepReport, WallCondition};
+use sph_integrators::{Integrator, Scheme, Simulation, StepError, StepReport, WallCondition};
 
 /// The initial state of a scene's blocks (the scene must be a valid `flow` or `dam_break`
 /// scene of dimension `D::DIM`).
@@ -57,7 +66,7 @@ pub fn centroid<D: Dim>(sim: &Simulation<D>) -> D::Vector {
 }
 
 /// The results of a flow run besides the run loop's.
-pub const RESULTS: [&str; 8] = [
+pub const RESULTS: [&str; 19] = [
     "centroid_x",
     "centroid_y",
     "centroid_z",
@@ -66,7 +75,27 @@ pub const RESULTS: [&str; 8] = [
     "ke_decay_error_max",
     "hydrostatic_error",
     "hydrostatic_error_max",
+    "isolated_fraction_max",
+    "kinetic_energy_change_max",
+    "energy_rise_max",
+    "settled_speed_ratio",
+    "settled_hydrostatic_error_max",
+    "level_change_dx",
+    "enclosed_void_area_max",
+    "centre_pressure_error_first_step",
+    "centre_pressure_error",
+    "t_contact",
+    "pool_speed_ratio_before_contact",
 ];
+
+/// Still water counts as settled after `t √(g/H)` = this (the hard suite's criterion).
+pub const SETTLED_AFTER: f64 = 20.0;
+
+/// The step after which a rigid rotation's centre pressure is compared with the Poisson
+/// solution (`centre_pressure_error`): Euler's first projection sees the divergence-free initial
+/// field and gives `p = 0`, DG's first `det A − 1 = Δt² ω²` half the centripetal source; the
+/// pressure of every scheme has caught up within a few steps.
+pub const CENTRE_PRESSURE_STEP: usize = 10;
 
 /// The generic flow case.
 pub struct FlowCase {
@@ -83,6 +112,40 @@ pub struct FlowCase {
     ke_end: f64,
     hydro_error: f64,
     hydro_error_max: f64,
+    /// Fluid particles (for fractions).
+    fluid: usize,
+    ke_change_max: f64,
+    /// Mechanical energy `KE + M |g| (h_c − h_min)` at the start and its largest rise.
+    energy0: f64,
+    energy_rise_max: f64,
+    /// Total fluid mass and the lowest initial height (potential-energy reference).
+    mass: f64,
+    h_min: f64,
+    /// `√(g/H)` and `√(gH)` of a hydrostatic start, and the settled window's maxima.
+    settle_rate: f64,
+    settle_speed: f64,
+    settled_speed_max: f64,
+    settled_hydro_max: f64,
+    /// Centroid height at the start (level change of an all-hydrostatic fill).
+    h_c0: f64,
+    level_change: f64,
+    all_hydrostatic: bool,
+    /// Compute the enclosed-void area (2D flows with a free surface, or a check asks for it).
+    voids: bool,
+    void_max: f64,
+    /// Rigid rotation in a box: the exact centre pressure and the particle (initial index)
+    /// nearest the centre; the measured errors.
+    centre_exact: Option<(f64, u32)>,
+    centre_first: f64,
+    centre_error: f64,
+    /// `pool[id]`: the particle (initial numbering) belongs to a hydrostatic block.
+    pool: Vec<bool>,
+    /// The scene has hydrostatic and other blocks (a pool and what falls into it).
+    pool_and_falling: bool,
+    /// First record at which a falling particle has a pool particle in its support, and the
+    /// pool's largest speed over `√(gH)` before it.
+    t_contact: f64,
+    pool_speed_max: f64,
 }
 
 impl FlowCase {
@@ -109,8 +172,181 @@ impl FlowCase {
             ke_end: f64::NAN,
             hydro_error: f64::NAN,
             hydro_error_max: f64::NAN,
+            fluid: 0,
+            ke_change_max: f64::NAN,
+            energy0: f64::NAN,
+            energy_rise_max: f64::NAN,
+            mass: 0.0,
+            h_min: 0.0,
+            settle_rate: f64::NAN,
+            settle_speed: f64::NAN,
+            settled_speed_max: f64::NAN,
+            settled_hydro_max: f64::NAN,
+            h_c0: f64::NAN,
+            level_change: f64::NAN,
+            all_hydrostatic: !scene.fluid.is_empty() && scene.fluid.iter().all(|b| b.hydrostatic),
+            voids: scene
+                .check
+                .iter()
+                .any(|c| c.quantity == "enclosed_void_area_max")
+                || (scene.dim == 2 && scene.free_surface.is_some()),
+            void_max: f64::NAN,
+            centre_exact: None,
+            centre_first: f64::NAN,
+            centre_error: f64::NAN,
+            pool: Vec::new(),
+            pool_and_falling: false,
+            t_contact: f64::NAN,
+            pool_speed_max: f64::NAN,
         }
     }
+
+    /// Up (against gravity) and `|g|`, if the scene has gravity.
+    fn up<D: Dim>(&self) -> Option<(D::Vector, f64)> {
+        let g = self.scene.effects.gravity?;
+        let gv = D::Vector::from_fn(|k| g[k]);
+        let gn = gv.length();
+        (gn > 0.0 && gn.is_finite()).then(|| (gv * (-1.0 / gn), gn))
+    }
+
+    /// `KE + M |g| (h_c − h_min)` (no potential term without gravity).
+    fn mechanical_energy<D: Dim>(&self, sim: &Simulation<D>, ke: f64) -> f64 {
+        match self.up::<D>() {
+            Some((up, gn)) => ke + self.mass * gn * (up.dot(centroid(sim)) - self.h_min),
+            None => ke,
+        }
+    }
+
+    /// The pressure of the particle nearest a rigid rotation's centre.
+    fn centre_pressure<D: Dim>(&self, sim: &Simulation<D>) -> Option<f64> {
+        let (_, id) = self.centre_exact?;
+        let slot = sim.ids().iter().position(|&k| k == id)?;
+        Some(sim.particles.pressures[slot])
+    }
+}
+
+/// Pressure at the centre of a rectangle `[−a, a] × [−b, b]` of fluid in rigid rotation at
+/// `ω`, with `p = 0` on its edges: the Poisson problem `∇²p = 2ρω²` (for `u = ω e_z × x`,
+/// `−ρ ∂_i u_j ∂_j u_i = 2ρω²`) solved by the series of the torsion function,
+///
+/// ```text
+/// p(0, 0) = −2ρω² [a²/2 − (16 a²/π³) Σ_{n odd} (−1)^{(n−1)/2} / (n³ cosh(nπb/(2a)))]
+/// ```
+///
+/// (separation of variables for `∇²u = −1`, `u = 0` on the edges; for a square the bracket is
+/// `0.2946854 a²`, the torsion constant of a square bar).
+pub fn rotating_rectangle_centre_pressure(a: f64, b: f64, rho: f64, omega: f64) -> f64 {
+    use std::f64::consts::PI;
+    let mut sum = 0.0;
+    for k in 0..50 {
+        let n = (2 * k + 1) as f64;
+        let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+        let c = (n * PI * b / (2.0 * a)).cosh();
+        if !c.is_finite() {
+            break;
+        }
+        sum += sign / (n * n * n * c);
+    }
+    let u0 = a * a / 2.0 - 16.0 * a * a / PI.powi(3) * sum;
+    -2.0 * rho * omega * omega * u0
+}
+
+/// Area (volume in 3D) of the empty regions the fluid encloses, in units of `dx^D`: on a grid
+/// of cells `dx/2` wide over the fluid's bounding box (two cells of margin), a cell is fluid
+/// when a fluid particle lies within `1.1 dx` of its centre (so a lattice, and a single missing
+/// particle in it, is all fluid); the empty cells that no path of empty cells connects to the
+/// grid's edge are enclosed voids. Air trapped by the fluid alone (a closed air pocket, a hole
+/// torn into a patch) counts; a gap between fluid and a wall does not (walls are not drawn).
+pub fn enclosed_void_area<D: Dim>(x: &[D::Vector], dx: f64) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    let c = 0.5 * dx;
+    let r = 1.1 * dx;
+    let mut lo = [0.0f64; 3];
+    let mut n = [1usize; 3];
+    for k in 0..D::DIM {
+        let (a, b) = x
+            .iter()
+            .map(|p| p.get(k))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+        lo[k] = a - r - 2.0 * c;
+        n[k] = (((b + r + 2.0 * c) - lo[k]) / c).ceil() as usize + 1;
+    }
+    let cells = n[0] * n[1] * n[2];
+    // A grid beyond this many cells (a spray thrown far away) is not measured.
+    if cells > 50_000_000 {
+        return f64::NAN;
+    }
+    let index = |i: [usize; 3]| i[0] + n[0] * (i[1] + n[1] * i[2]);
+    let mut fluid = vec![false; cells];
+    let reach = (r / c).ceil() as i64;
+    for p in x {
+        let mut ci = [0i64; 3];
+        for k in 0..D::DIM {
+            ci[k] = ((p.get(k) - lo[k]) / c).floor() as i64;
+        }
+        let span = |k: usize| if k < D::DIM { -reach..=reach } else { 0..=0 };
+        for dz in span(2) {
+            for dy in span(1) {
+                for dxi in span(0) {
+                    let d = [dxi, dy, dz];
+                    let mut cell = [0usize; 3];
+                    let mut dist2 = 0.0;
+                    let mut inside = true;
+                    for k in 0..D::DIM {
+                        let v = ci[k] + d[k];
+                        if v < 0 || v >= n[k] as i64 {
+                            inside = false;
+                            break;
+                        }
+                        cell[k] = v as usize;
+                        let centre = lo[k] + (v as f64 + 0.5) * c;
+                        dist2 += (centre - p.get(k)).powi(2);
+                    }
+                    if inside && dist2 <= r * r {
+                        fluid[index(cell)] = true;
+                    }
+                }
+            }
+        }
+    }
+    // Flood the empty cells from the grid's edge.
+    let mut outside = vec![false; cells];
+    let mut stack = Vec::new();
+    for (k, (f, o)) in fluid.iter().zip(outside.iter_mut()).enumerate() {
+        let i = [k % n[0], (k / n[0]) % n[1], k / (n[0] * n[1])];
+        let edge = (0..D::DIM).any(|a| i[a] == 0 || i[a] + 1 == n[a]);
+        if edge && !*f {
+            *o = true;
+            stack.push(i);
+        }
+    }
+    while let Some(i) = stack.pop() {
+        for a in 0..D::DIM {
+            for step in [-1i64, 1] {
+                let v = i[a] as i64 + step;
+                if v < 0 || v >= n[a] as i64 {
+                    continue;
+                }
+                let mut j = i;
+                j[a] = v as usize;
+                let k = index(j);
+                if !fluid[k] && !outside[k] {
+                    outside[k] = true;
+                    stack.push(j);
+                }
+            }
+        }
+    }
+    let voids = fluid
+        .iter()
+        .zip(&outside)
+        .filter(|(f, o)| !**f && !**o)
+        .count();
+    voids as f64 * (c / dx).powi(D::DIM as i32)
 }
 
 /// ½ Σ m u² over the fluid.
@@ -174,32 +410,101 @@ impl<D: Dim> Case<D> for FlowCase {
                 "",
                 "RMS of (p − ρ₀|g|(top − z)) / (ρ₀|g|H) over the fluid (hydrostatic blocks only)",
             ),
+            Column::new(
+                "mechanical_energy",
+                "energy",
+                "KE + M |g| (h_c − h_min): kinetic plus potential energy of the fluid, heights \
+                 from its lowest initial point (KE alone without gravity)",
+            ),
+            Column::new(
+                "enclosed_void_area",
+                "dx^D",
+                "area (3D: volume) of the empty regions the fluid encloses (2D flows with a free \
+                 surface, or when a check asks for enclosed_void_area_max)",
+            ),
         ]
     }
 
     fn start(&mut self, sim: &Simulation<D>) -> Result<(), CaseError> {
         self.ke0 = kinetic_energy(sim);
-        let hydrostatic = self.scene.fluid.iter().any(|b| b.hydrostatic);
-        if let (true, Some(g)) = (hydrostatic, self.scene.effects.gravity) {
-            let gv = D::Vector::from_fn(|k| g[k]);
-            let gn = gv.length();
-            if gn > 0.0 {
-                let up = gv * (-1.0 / gn);
-                let nf = sim.fluid_len();
-                let (lo, hi) = sim.particles.positions[..nf]
-                    .iter()
-                    .map(|x| up.dot(*x))
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                        (a.min(v), b.max(v))
-                    });
-                let top = hi + 0.5 * self.scene.dx;
-                self.hydro = Some((
-                    up.to_array3(),
-                    top,
-                    self.scene.rho0() * gn,
-                    top - lo + 0.5 * self.scene.dx,
-                ));
-            }
+        let nf = sim.fluid_len();
+        self.fluid = nf;
+        self.mass = sim.particles.masses[..nf].iter().sum();
+        if let Some((up, _)) = self.up::<D>() {
+            self.h_min = sim.particles.positions[..nf]
+                .iter()
+                .map(|x| up.dot(*x))
+                .fold(f64::INFINITY, f64::min);
+            self.h_c0 = up.dot(centroid(sim));
+        }
+        self.energy0 = self.mechanical_energy(sim, self.ke0);
+        self.energy_rise_max = if self.energy0 > 0.0 { 0.0 } else { f64::NAN };
+        self.ke_change_max = if self.ke0 > 0.0 { 0.0 } else { f64::NAN };
+        if D::DIM == 2 {
+            self.centre_exact = self.scene.fluid.iter().find_map(|b| {
+                let f = b.velocity_field.as_ref()?;
+                if f.kind != crate::blocks::FieldKind::RigidRotation
+                    || b.shape != crate::blocks::FluidShape::Box
+                {
+                    return None;
+                }
+                let (lo, hi) = (b.min.as_ref()?, b.max.as_ref()?);
+                let omega = f.omega?;
+                let centre = f
+                    .center
+                    .clone()
+                    .unwrap_or_else(|| vec![0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])]);
+                let exact = rotating_rectangle_centre_pressure(
+                    0.5 * (hi[0] - lo[0]),
+                    0.5 * (hi[1] - lo[1]),
+                    self.scene.rho0(),
+                    omega,
+                );
+                let c = D::Vector::from_fn(|k| centre.get(k).copied().unwrap_or(0.0));
+                let nearest = (0..nf).min_by(|&i, &j| {
+                    let (di, dj) = (
+                        (sim.particles.positions[i] - c).length_squared(),
+                        (sim.particles.positions[j] - c).length_squared(),
+                    );
+                    di.total_cmp(&dj)
+                })?;
+                Some((exact, sim.ids()[nearest]))
+            });
+        }
+        // Which particles (initial numbering) belong to hydrostatic blocks: the pool.
+        self.pool.clear();
+        if self.scene.fluid.iter().any(|b| b.hydrostatic) {
+            let condition = self
+                .scene
+                .wall_condition
+                .unwrap_or(WallCondition::Continuation);
+            let built = crate::geometry::build_blocks::<D>(
+                &self.scene,
+                &self.scene.fluid,
+                &self.scene.wall,
+                condition,
+            )?;
+            self.pool = built
+                .block_of
+                .iter()
+                .map(|&b| self.scene.fluid[b].hydrostatic)
+                .collect();
+        }
+        self.pool_and_falling = self.pool.iter().any(|p| *p) && self.pool.iter().any(|p| !*p);
+        if let (false, Some((up, gn))) = (self.pool.is_empty(), self.up::<D>()) {
+            let ids = sim.ids();
+            let (lo, hi) = (0..nf)
+                .filter(|&i| self.pool[ids[i] as usize])
+                .map(|i| up.dot(sim.particles.positions[i]))
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(v), b.max(v))
+                });
+            let top = hi + 0.5 * self.scene.dx;
+            let depth = top - lo + 0.5 * self.scene.dx;
+            self.hydro = Some((up.to_array3(), top, self.scene.rho0() * gn, depth));
+            self.settle_rate = (gn / depth).sqrt();
+            self.settle_speed = (gn * depth).sqrt();
+            self.pool_speed_max = if self.pool_and_falling { 0.0 } else { f64::NAN };
         }
         Ok(())
     }
@@ -235,19 +540,94 @@ impl<D: Dim> Case<D> for FlowCase {
                     let up = D::Vector::from_fn(|k| up[k]);
                     let nf = sim.fluid_len();
                     let p = &sim.particles;
-                    let sq: f64 = (0..nf)
+                    let ids = sim.ids();
+                    let (sq, count) = (0..nf)
+                        .filter(|&i| self.pool[ids[i] as usize])
                         .map(|i| {
                             let e = (p.pressures[i] - rho_g * (top - up.dot(p.positions[i])))
                                 / (rho_g * h);
                             e * e
                         })
-                        .sum();
-                    (sq / nf.max(1) as f64).sqrt()
+                        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+                    (sq / count.max(1) as f64).sqrt()
                 });
+        if self.pool_and_falling && self.t_contact.is_nan() {
+            let nf = sim.fluid_len();
+            let ids = sim.ids();
+            let lists = sim.neighbors();
+            let in_pool = |slot: usize| self.pool[ids[slot] as usize];
+            let touching = lists.len() >= nf
+                && (0..nf).any(|i| {
+                    !in_pool(i)
+                        && lists
+                            .row(i)
+                            .iter()
+                            .any(|&j| (j as usize) < nf && in_pool(j as usize))
+                });
+            if touching {
+                self.t_contact = sim.t;
+            } else {
+                let u = &sim.particles.velocities;
+                let pool_speed = (0..nf)
+                    .filter(|&i| in_pool(i))
+                    .map(|i| u[i].length())
+                    .fold(0.0, f64::max);
+                self.pool_speed_max = self.pool_speed_max.max(pool_speed / self.settle_speed);
+            }
+        }
         self.hydro_error = hydro;
         self.hydro_error_max = self.hydro_error_max.max(hydro);
-        out.extend_from_slice(&[c[0], c[1], c[2], lo, hi, isolated, ke_error, hydro]);
+        if self.ke0 > 0.0 {
+            self.ke_change_max = self.ke_change_max.max((ke / self.ke0 - 1.0).abs());
+        }
+        let energy = self.mechanical_energy(sim, ke);
+        if self.energy0 > 0.0 {
+            self.energy_rise_max = self.energy_rise_max.max(energy / self.energy0 - 1.0);
+        }
+        if self.settle_rate.is_finite() && sim.t * self.settle_rate >= SETTLED_AFTER {
+            self.settled_speed_max = self
+                .settled_speed_max
+                .max(sim.max_speed() / self.settle_speed);
+            self.settled_hydro_max = self.settled_hydro_max.max(hydro);
+        }
+        if self.all_hydrostatic
+            && let Some((up, _)) = self.up::<D>()
+        {
+            let change = 2.0 * (up.dot(centroid(sim)) - self.h_c0) / self.scene.dx;
+            self.level_change = self.level_change.max(change.abs());
+        }
+        let void = if self.voids {
+            let nf = sim.fluid_len();
+            enclosed_void_area::<D>(&sim.particles.positions[..nf], self.scene.dx)
+        } else {
+            f64::NAN
+        };
+        self.void_max = self.void_max.max(void);
+        out.extend_from_slice(&[
+            c[0], c[1], c[2], lo, hi, isolated, ke_error, hydro, energy, void,
+        ]);
         Ok(())
+    }
+
+    fn advance(
+        &mut self,
+        sim: &mut Simulation<D>,
+        scheme: &mut Scheme,
+        dt: f64,
+    ) -> Result<StepReport, StepError> {
+        let report = scheme.step(sim, dt)?;
+        if let Some((exact, _)) = self.centre_exact {
+            let error = self
+                .centre_pressure(sim)
+                .map_or(f64::NAN, |p| p / exact - 1.0);
+            if sim.step == 1 {
+                self.centre_first = error;
+            }
+            if sim.step == CENTRE_PRESSURE_STEP {
+                self.centre_error = error;
+            }
+        }
+        Ok(report)
     }
 
     fn finish(&mut self, _sim: &Simulation<D>) -> Result<Finish, CaseError> {
@@ -271,6 +651,20 @@ impl<D: Dim> Case<D> for FlowCase {
             ("ke_decay_error_max", self.ke_error_max),
             ("hydrostatic_error", self.hydro_error),
             ("hydrostatic_error_max", self.hydro_error_max),
+            (
+                "isolated_fraction_max",
+                self.isolated_max / self.fluid.max(1) as f64,
+            ),
+            ("kinetic_energy_change_max", self.ke_change_max),
+            ("energy_rise_max", self.energy_rise_max),
+            ("settled_speed_ratio", self.settled_speed_max),
+            ("settled_hydrostatic_error_max", self.settled_hydro_max),
+            ("level_change_dx", self.level_change),
+            ("enclosed_void_area_max", self.void_max),
+            ("centre_pressure_error_first_step", self.centre_first),
+            ("centre_pressure_error", self.centre_error),
+            ("t_contact", self.t_contact),
+            ("pool_speed_ratio_before_contact", self.pool_speed_max),
         ] {
             results.insert(name.into(), v);
         }
@@ -278,5 +672,100 @@ impl<D: Dim> Case<D> for FlowCase {
             tables: Vec::new(),
             results,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sph_core::testing::lattice;
+
+    /// `∇²u = −1` on `[−a, a] × [−b, b]`, `u = 0` on the edges, by second-order finite
+    /// differences (`m` cells along `x`, Gauss–Seidel with over-relaxation): the centre value.
+    fn poisson_centre(a: f64, b: f64, m: usize) -> f64 {
+        let h = 2.0 * a / m as f64;
+        let mb = (2.0 * b / h).round() as usize;
+        let mut u = vec![0.0; (m + 1) * (mb + 1)];
+        let at = |i: usize, j: usize| i + (m + 1) * j;
+        let omega = 2.0 / (1.0 + (std::f64::consts::PI / m.max(mb) as f64).sin());
+        for _ in 0..4000 {
+            for j in 1..mb {
+                for i in 1..m {
+                    let gs = 0.25
+                        * (u[at(i - 1, j)]
+                            + u[at(i + 1, j)]
+                            + u[at(i, j - 1)]
+                            + u[at(i, j + 1)]
+                            + h * h);
+                    u[at(i, j)] += omega * (gs - u[at(i, j)]);
+                }
+            }
+        }
+        u[at(m / 2, mb / 2)]
+    }
+
+    /// The series for the rotating rectangle's centre pressure agrees with a finite-difference
+    /// solution of the same Poisson problem (square and 2:1 rectangle), and the square's value
+    /// is the torsion constant 0.2946854 a² (times −2ρω²).
+    #[test]
+    fn rotating_rectangle_centre_pressure_solves_the_poisson_problem() {
+        for (a, b) in [(0.5, 0.5), (0.5, 1.0)] {
+            let series = rotating_rectangle_centre_pressure(a, b, 1.0, 1.0);
+            let fd = -2.0 * poisson_centre(a, b, 64);
+            assert!(
+                (series / fd - 1.0).abs() < 1e-3,
+                "{a} × {b}: series {series}, finite differences {fd}"
+            );
+        }
+        let square = rotating_rectangle_centre_pressure(0.5, 0.5, 1.0, 1.0);
+        assert!(
+            (square / (-2.0 * 0.2946854 * 0.25) - 1.0).abs() < 1e-6,
+            "{square}"
+        );
+        // ρ and ω scale it as ρ ω².
+        let scaled = rotating_rectangle_centre_pressure(0.5, 0.5, 2.0, 3.0);
+        assert!((scaled / (18.0 * square) - 1.0).abs() < 1e-12);
+    }
+
+    sph_core::dim_tests! {
+        /// A lattice block encloses no void, nor does it with one particle missing or with a
+        /// notch cut from its side; a hole of radius 3 dx cut from its middle is one enclosed
+        /// void whose measured size is the hole less the band within 1.1 dx of its rim.
+        fn enclosed_voids_are_holes_in_the_fluid<D>() {
+            let per_side = if D::DIM == 2 { 24 } else { 14 };
+            let dx = 1.0 / per_side as f64;
+            let block = lattice::<D>(per_side, dx);
+            assert_eq!(enclosed_void_area::<D>(&block, dx), 0.0);
+            let mut one_gone = block.clone();
+            let centre = (0..one_gone.len())
+                .min_by(|&i, &j| one_gone[i].length().total_cmp(&one_gone[j].length()))
+                .unwrap();
+            one_gone.remove(centre);
+            assert_eq!(enclosed_void_area::<D>(&one_gone, dx), 0.0, "a vacancy is no void");
+            let notch: Vec<D::Vector> = block
+                .iter()
+                .copied()
+                .filter(|x| !(x.get(0) > 0.2 && x.get(1).abs() < 4.0 * dx))
+                .collect();
+            assert_eq!(enclosed_void_area::<D>(&notch, dx), 0.0, "a notch open to the outside");
+            let r = 3.0 * dx;
+            let holed: Vec<D::Vector> = block.iter().copied().filter(|x| x.length() > r).collect();
+            let area = enclosed_void_area::<D>(&holed, dx);
+            // The void is what lies farther than 1.1 dx from every particle: it holds the ball
+            // of radius r − 1.1 dx and lies within the removed ball (its lattice sites reach
+            // out to r + √D dx / 2).
+            let ball = |radius: f64| {
+                if D::DIM == 2 {
+                    std::f64::consts::PI * radius * radius
+                } else {
+                    4.0 / 3.0 * std::f64::consts::PI * radius.powi(3)
+                }
+            };
+            let (lower, upper) = (
+                0.9 * ball(r / dx - 1.1),
+                ball(r / dx + 0.5 * (D::DIM as f64).sqrt()),
+            );
+            assert!(area >= lower && area <= upper, "area {area}, expected {lower} to {upper}");
+        }
     }
 }

@@ -61,6 +61,8 @@ pub struct Built<D: Dim> {
     pub walls: Option<Walls<D>>,
     /// Lattice sites of fluid blocks left out because they lie in wall material.
     pub carved: usize,
+    /// The `[[fluid]]` block of each fluid particle (initial numbering).
+    pub block_of: Vec<usize>,
 }
 
 fn vector<D: Dim>(v: &[f64]) -> D::Vector {
@@ -485,6 +487,7 @@ pub fn build_blocks<D: Dim>(
         particles,
         walls,
         carved,
+        block_of,
     })
 }
 

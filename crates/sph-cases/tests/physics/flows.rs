@@ -214,3 +214,40 @@ fn settling_moves_the_start_and_keeps_the_clock() {
         "settling moved the particles (centroid {y0} both times)"
     );
 }
+
+/// A drop falling into a pool: the pool is the hydrostatic block, the drop the other; they
+/// first touch (a drop particle with a pool particle in its support) after the drop has fallen
+/// the gap less about a support radius, `t = √(2 (gap − r) / g)`, and the pool's largest speed
+/// before that, over `√(gH)`, is measured. The mechanical energy's rise is measured from the
+/// start (heights from the floor).
+#[test]
+fn a_drop_meets_the_pool_when_it_has_fallen_the_gap() {
+    let text = "dim = 2\ndx = 0.05\nkernel = \"wendland_c2\"\ndt = 1e-3\nt_end = 0.4\n\
+                schemes = [\"euler\"]\n\
+                [[fluid]]\nshape = \"box\"\nmin = [0.0, 0.0]\nmax = [2.0, 0.5]\nhydrostatic = true\n\
+                [[fluid]]\nshape = \"circle\"\ncenter = [1.0, 1.2]\nradius = 0.2\n\
+                [[wall]]\nmin = [0.0, 0.0]\nmax = [2.0, 2.0]\nopen = [\"+y\"]\n\
+                [free_surface]\n[effects]\ngravity = [0.0, -9.81, 0.0]\n\
+                [output]\nsample_every = 1\n";
+    let (out, _) = run(&parse_scene("pool", text).unwrap(), SchemeKind::Euler);
+    assert!(out.failure.is_none(), "{:?}", out.failure);
+    let r = &out.results;
+    // On the staggered lattice the drop's lowest particle sits at y = 1.025 (1.2 − 0.175) and
+    // the pool's top row at 0.475; they touch when that gap has closed to the support radius
+    // 2 h = 0.13.
+    let gap: f64 = 1.025 - 0.475 - 0.13;
+    let expected = (2.0 * gap / 9.81).sqrt();
+    let t = r["t_contact"];
+    assert!(
+        (t - expected).abs() < 0.02,
+        "contact at {t}, free fall says {expected}"
+    );
+    let pool = r["pool_speed_ratio_before_contact"];
+    // The pool, not the falling drop (which reaches 2.4 = 1.1 √(gH) by then).
+    assert!((0.0..0.1).contains(&pool), "{pool}");
+    assert!(r["energy_rise_max"].is_finite());
+    assert!(
+        r["level_change_dx"].is_nan(),
+        "not all blocks are hydrostatic"
+    );
+}
