@@ -265,8 +265,9 @@ impl Krylov for BiCgStab {
                 reason: "non-finite residual",
             });
         }
-        // Allow a small slack for recurrence/true residual mismatch; beyond it, report failure.
-        if rel_residual > 10.0 * params.rel_tolerance {
+        // Allow a small slack for recurrence/true residual mismatch, and a residual at the
+        // round-off floor (backward error); beyond them, report failure.
+        if !a.accepts(x, rel_residual, params.rel_tolerance, t) {
             return Err(SolveError::NoConvergence {
                 solver: name,
                 iterations,

@@ -140,6 +140,15 @@ impl Krylov for Gmres {
                 });
             }
             if iterations >= params.max_iterations {
+                // A residual at the round-off floor meets the tolerance as a backward error.
+                if a.backward_error(x, &mut self.z) <= params.rel_tolerance {
+                    return Ok(SolveInfo {
+                        iterations,
+                        rel_residual: beta / bnorm,
+                        seconds: t0.elapsed().as_secs_f64(),
+                        setup_seconds,
+                    });
+                }
                 return Err(SolveError::NoConvergence {
                     solver: name,
                     iterations,

@@ -908,3 +908,48 @@ sph_core::dim_tests! {
         }
     }
 }
+
+/// The backward error is `‖b − A x‖₂ / (‖A‖_F ‖x‖₂ + ‖b‖₂)`, computed here by hand for a 2 × 2
+/// system, with and without a border (whose row and column count in `‖A‖_F`).
+#[test]
+fn backward_error_is_the_normwise_formula() {
+    // A = [[2, 1], [0, 3]], x = (1, 1), b = (3, 4): r = b − A x = (0, 1).
+    let offsets = [0usize, 2, 3];
+    let cols = [0u32, 1, 1];
+    let values = [2.0, 1.0, 3.0];
+    let rhs = [3.0, 4.0];
+    let sys = CsrSystem {
+        offsets: &offsets,
+        cols: &cols,
+        values: &values,
+        rhs: &rhs,
+        border: None,
+    };
+    let mut scratch = vec![0.0; 2];
+    let eta = sys.backward_error(&[1.0, 1.0], &mut scratch);
+    let expected = 1.0 / (14.0f64.sqrt() * 2.0f64.sqrt() + 5.0);
+    assert!((eta - expected).abs() < 1e-15, "{eta} against {expected}");
+    // A border: one more unknown, the first row coupled to it with 0.5, the border row
+    // (1, 1, 4); x = (1, 1, 1), b = (3.5, 4, 6): r = (0, 1, 0).
+    let row = [1.0, 1.0, 4.0];
+    let rhs3 = [3.5, 4.0, 6.0];
+    let bordered = CsrSystem {
+        offsets: &offsets,
+        cols: &cols,
+        values: &values,
+        rhs: &rhs3,
+        border: Some(Border {
+            rows: 1,
+            column: 0.5,
+            row: &row,
+        }),
+    };
+    let mut scratch3 = vec![0.0; 3];
+    let eta3 = bordered.backward_error(&[1.0, 1.0, 1.0], &mut scratch3);
+    let a_f = (14.0f64 + 0.25 + 18.0).sqrt();
+    let expected3 = 1.0 / (a_f * 3.0f64.sqrt() + (3.5f64 * 3.5 + 16.0 + 36.0).sqrt());
+    assert!(
+        (eta3 - expected3).abs() < 1e-15,
+        "{eta3} against {expected3}"
+    );
+}
