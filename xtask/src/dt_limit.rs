@@ -160,7 +160,7 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
                 reason = format!("stable up to the five-step cap T/5 = {cap:.3e}");
             }
             let wall = t0.elapsed().as_secs_f64();
-            println!(
+            dgsph::say!(
                 "{name} {}: stable Δt {lo:.3e} (C = {:.3}), unstable {hi:.3e}: {reason} [{trials} trials, {wall:.0} s]",
                 scheme.name(),
                 u * lo / h
@@ -195,6 +195,6 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
         .and_then(|()| dgsph::output::write_atomic(&args.out.join("dt_limit.csv"), csv.as_bytes()))
         .with_context(|| format!("writing into {}", args.out.display()))
         .map_err(AppError::Output)?;
-    println!("{}", args.out.join("dt_limit.md").display());
+    dgsph::say!("{}", args.out.join("dt_limit.md").display());
     Ok(exit::OK)
 }

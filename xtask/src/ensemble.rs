@@ -112,7 +112,7 @@ pub fn run(args: &EnsembleArgs) -> Result<u8, AppError> {
         .clone()
         .unwrap_or_else(|| session::scene_stem(&args.scene));
     let refs = References::embedded();
-    println!(
+    dgsph::say!(
         "{}: {} draws, Δt = {:?} (1 − k·{eps:e}), schemes {}",
         args.scene.display(),
         args.draws,
@@ -142,7 +142,7 @@ pub fn run(args: &EnsembleArgs) -> Result<u8, AppError> {
                 .filter(|(key, _)| key.starts_with("ghia_"))
                 .map(|(key, v)| format!("{key} {v:.6e}"))
                 .collect();
-            println!(
+            dgsph::say!(
                 "  {} k = {k}: Δt = {:?}, t = {:.4}, {:.1} s, {}{}",
                 scheme.name(),
                 s.dt,
@@ -176,9 +176,9 @@ pub fn run(args: &EnsembleArgs) -> Result<u8, AppError> {
         dgsph::output::write_atomic(&path, text.as_bytes())
             .with_context(|| format!("writing {}", path.display()))
             .map_err(AppError::Output)?;
-        println!("wrote {}", path.display());
+        dgsph::say!("wrote {}", path.display());
     }
-    print!("{md}");
+    dgsph::say_part!("{md}");
     Ok(if draws.iter().any(|d| d.failure.is_some()) {
         exit::RUN_FAILED
     } else {

@@ -176,8 +176,8 @@ pub fn run(args: &CompareArgs) -> Result<u8, AppError> {
     dgsph::output::write_atomic(&args.out, md.as_bytes())
         .with_context(|| format!("writing {}", args.out.display()))
         .map_err(AppError::Output)?;
-    print!("{md}");
-    println!("wrote {}", args.out.display());
+    dgsph::say_part!("{md}");
+    dgsph::say!("wrote {}", args.out.display());
     Ok(exit::OK)
 }
 

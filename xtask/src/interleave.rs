@@ -247,7 +247,7 @@ pub fn run(args: &InterleaveArgs) -> Result<u8, AppError> {
             step_figures: times.len(),
             load1: load,
         };
-        println!(
+        dgsph::say!(
             "run {n} {side} {label}: {:.2} s, {} s/step",
             r.wall_s,
             cell(r.s_per_step, 4)
@@ -262,7 +262,7 @@ pub fn run(args: &InterleaveArgs) -> Result<u8, AppError> {
     dgsph::output::write_atomic(&md_path, md.as_bytes())
         .with_context(|| format!("writing {}", md_path.display()))
         .map_err(AppError::Output)?;
-    println!(
+    dgsph::say!(
         "\n{md}\nwritten: {}, {}",
         csv_path.display(),
         md_path.display()

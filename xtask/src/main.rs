@@ -33,6 +33,10 @@ fn main() -> ExitCode {
     // a worker runs its unsplit (short) parts inline, while one started from the main thread
     // is handed to the pool and waited for — a wake-up and a sleep per call, thousands per
     // step in the multigrid cycle's short coarse-level loops.
+    if let Err(e) = dgsph::cli::start_thread_pool() {
+        dgsph::warn!("error: {e}");
+        return ExitCode::from(e.exit_code());
+    }
     let result = rayon::scope(|_| match cli.command {
         flags::Command::Validate(args) => validate::run(&args),
         flags::Command::Run(args) => dgsph::cli::run(&args),
@@ -42,7 +46,7 @@ fn main() -> ExitCode {
         flags::Command::Interleave(args) => interleave::run(&args),
         flags::Command::Report(args) => dgsph::report::write(&args.dir)
             .map(|p| {
-                println!("report: {}", p.display());
+                dgsph::say!("report: {}", p.display());
                 exit::OK
             })
             .map_err(AppError::Input),
@@ -50,7 +54,7 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
-            eprintln!("error: {e}");
+            dgsph::warn!("error: {e}");
             ExitCode::from(e.exit_code())
         }
     }

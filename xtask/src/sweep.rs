@@ -213,7 +213,7 @@ pub fn run(
         .map_err(AppError::Output)?;
     let mut points = Vec::new();
     let mut progress = |p: Point| {
-        println!(
+        dgsph::say!(
             "  {:<16} {:<9} {:<19} {:<14} {:<15} tol {:.0e}{} dx {:<7} dt {:<8.1e} n {:>6}  error {:.3e}  wall {:>7.2} s  {}",
             p.case,
             p.study,
@@ -449,7 +449,7 @@ fn write_outputs(out: &Path, points: &[Point]) -> anyhow::Result<()> {
     let md_path = out.join("sweep.md");
     dgsph::output::write_atomic(&md_path, md.as_bytes())
         .with_context(|| format!("writing {}", md_path.display()))?;
-    println!("sweep: {} and {}", md_path.display(), csv_path.display());
+    dgsph::say!("sweep: {} and {}", md_path.display(), csv_path.display());
     Ok(())
 }
 

@@ -42,7 +42,7 @@ pub fn load_references(dir: Option<&Path>) -> anyhow::Result<References> {
     if let Some(message) = failed {
         anyhow::bail!(message);
     }
-    println!(
+    dgsph::say!(
         "references: {} from {} (others compiled in)",
         if replaced.is_empty() {
             "none".to_string()
@@ -92,6 +92,12 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
     scenes.sort();
+    if scenes.is_empty() {
+        return Err(AppError::Input(anyhow::anyhow!(
+            "scene directory {} holds no scene (*.toml)",
+            cases_dir.display()
+        )));
+    }
     for path in scenes {
         let name = session::scene_stem(&path);
         let scene = match session::load_scene(&path) {
@@ -99,7 +105,7 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
             // A malformed scene fails the run only when it is selected (by its file stem: its
             // kind is unknown); the others still run and the summary is written.
             Err(e) if wants(&name) => {
-                eprintln!("{}: {e}", path.display());
+                dgsph::warn!("{}: {e}", path.display());
                 bad_input = true;
                 checks.push((
                     Check::new(name.clone(), "scene parses", 0.0, 1.0, 0.0, e.to_string()),
@@ -108,7 +114,7 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
                 continue;
             }
             Err(e) => {
-                eprintln!(
+                dgsph::warn!(
                     "{}: skipped (not selected), and it does not parse: {e}",
                     path.display()
                 );
@@ -118,7 +124,7 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
         if !wants(scene.case.name()) && !wants(&name) {
             continue;
         }
-        println!("{} ({} preset)", path.display(), args.preset.name());
+        dgsph::say!("{} ({} preset)", path.display(), args.preset.name());
         let scene = args.preset.apply(&scene);
         let outcome = session::run_scene(
             &scene,
@@ -132,17 +138,18 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
                 frame_every: args.frame_every.map(|n| n as usize),
                 progress_every: 10.0,
                 verbose: true,
+                stop: dgsph::signals::installed(),
             },
         );
         match outcome {
             Ok(o) => {
-                println!("  [{:.1} s]", o.wall_s);
+                dgsph::say!("  [{:.1} s]", o.wall_s);
                 failed_runs += o.unexpected_failed_runs;
                 checks.extend(o.checks.into_iter().map(|c| (c, o.wall_s)));
                 runs.extend(o.runs);
             }
             Err(AppError::Input(e)) => {
-                eprintln!("{}: {e:#}", path.display());
+                dgsph::warn!("{}: {e:#}", path.display());
                 bad_input = true;
                 checks.push((
                     Check::new(name, "scene runs", 0.0, 1.0, 0.0, format!("{e:#}")),
@@ -162,7 +169,7 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
     let plain: Vec<Check> = checks.iter().map(|(c, _)| c.clone()).collect();
     let passed = dgsph::cli::print_checks(&plain);
     let wall_s = t0.elapsed().as_secs_f64();
-    println!("({} preset, {wall_s:.1} s)", args.preset.name());
+    dgsph::say!("({} preset, {wall_s:.1} s)", args.preset.name());
     let summary = Summary {
         schema_version: SCHEMA_VERSION,
         preset: args.preset.name().to_string(),
@@ -202,9 +209,9 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
             "summary.json does not read back into the summary written"
         )));
     }
-    println!("summary: {} (read back: identical)", path.display());
+    dgsph::say!("summary: {} (read back: identical)", path.display());
     let report = dgsph::report::write(&args.out).map_err(AppError::Output)?;
-    println!("report: {}", report.display());
+    dgsph::say!("report: {}", report.display());
     Ok(if bad_input {
         exit::BAD_INPUT
     } else if failed_runs > 0 {

@@ -59,3 +59,17 @@ fn a_declared_known_failure_is_reported_but_does_not_fail_the_validation() {
     assert_eq!(code, Some(1), "{text}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_scene_directory_without_scenes_is_bad_input() {
+    let dir = scratch("suite-empty");
+    std::fs::write(dir.join("notes.txt"), "no scenes here\n").unwrap();
+    let (code, text, _) = run(xtask_command()
+        .args(["validate", "--cases"])
+        .arg(&dir)
+        .arg("--out")
+        .arg(dir.join("out")));
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("holds no scene"), "{text}");
+    std::fs::remove_dir_all(&dir).ok();
+}

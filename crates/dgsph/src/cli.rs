@@ -56,20 +56,60 @@ pub struct ReportArgs {
     pub dir: PathBuf,
 }
 
+/// Starts the global rayon pool with `RAYON_NUM_THREADS` threads (unset, empty or 0: one per
+/// core). A value that is not a count, or far more threads than the machine has cores (more
+/// than 1024 and 16 per core), is bad input naming the variable, instead of a panic in the
+/// pool when the threads cannot be started.
+pub fn start_thread_pool() -> Result<(), AppError> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cap = (16 * cores).max(1024);
+    let bad = |why: String| {
+        AppError::Input(anyhow::anyhow!(
+            "RAYON_NUM_THREADS: {why} (this machine has {cores} cores; unset it to use them all)"
+        ))
+    };
+    let threads = match std::env::var("RAYON_NUM_THREADS") {
+        Ok(v) if !v.trim().is_empty() => {
+            let n: usize = v
+                .trim()
+                .parse()
+                .map_err(|_| bad(format!("{v:?} is not a thread count")))?;
+            if n > cap {
+                return Err(bad(format!("{n} threads is more than {cap}")));
+            }
+            n
+        }
+        _ => 0,
+    };
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .map_err(|e| bad(format!("the thread pool could not start: {e}")))
+}
+
 /// `dgsph run`: runs a scene; returns the exit code.
 pub fn run(args: &RunArgs) -> Result<u8, AppError> {
     let scene = session::load_scene(&args.scene)?;
     let scene = args.overrides.apply(args.preset.apply(&scene))?;
-    let name = args
-        .tag
-        .clone()
-        .unwrap_or_else(|| session::scene_stem(&args.scene));
+    let name = match &args.tag {
+        Some(tag) => tag.clone(),
+        None => {
+            let stem = session::scene_stem(&args.scene);
+            session::check_name(&stem).map_err(|e| {
+                AppError::Input(anyhow::anyhow!(
+                    "{e}; the scene file's name is the default: pass --tag NAME, or rename {}",
+                    args.scene.display()
+                ))
+            })?;
+            stem
+        }
+    };
     if !(args.progress_every.is_finite() && args.progress_every >= 0.0) {
         return Err(AppError::Input(anyhow::anyhow!(
             "--progress-every must be ≥ 0 seconds"
         )));
     }
-    println!(
+    crate::say!(
         "{} ({} preset) → {}",
         args.scene.display(),
         args.preset.name(),
@@ -87,6 +127,7 @@ pub fn run(args: &RunArgs) -> Result<u8, AppError> {
             frame_every: args.frame_every.map(|n| n as usize),
             progress_every: args.progress_every,
             verbose: true,
+            stop: crate::signals::installed(),
         },
     )?;
     let passed = print_checks(&outcome.checks);
@@ -104,12 +145,15 @@ pub fn print_checks(checks: &[sph_cases::Check]) -> bool {
     if checks.is_empty() {
         return true;
     }
-    println!(
+    crate::say!(
         "\n{:<28} {:<52} {:>14} {:>22}  result",
-        "case", "check", "value", "criterion"
+        "case",
+        "check",
+        "value",
+        "criterion"
     );
     for c in checks {
-        println!(
+        crate::say!(
             "{:<28} {:<52} {:>14.6e} {:>22}  {}",
             c.case,
             c.name,
@@ -120,7 +164,7 @@ pub fn print_checks(checks: &[sph_cases::Check]) -> bool {
     }
     let failed = checks.iter().filter(|c| c.fails()).count();
     let known = checks.iter().filter(|c| c.known_failure.is_some()).count();
-    println!(
+    crate::say!(
         "\n{} checks: {} passed, {} failed{}",
         checks.len(),
         checks.iter().filter(|c| c.passed()).count(),
@@ -189,12 +233,12 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
         effects.push(format!("periodic {}", axes.join(", ")));
     }
     let bytes = n * e.bytes / e.particles().max(1.0);
-    println!(
+    crate::say!(
         "{}: valid ({} preset)",
         args.scene.display(),
         args.preset.name()
     );
-    println!(
+    crate::say!(
         "  case        {} ({}D), schemes {}",
         scene.case.name(),
         scene.dim,
@@ -205,7 +249,7 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
             .collect::<Vec<_>>()
             .join(", ")
     );
-    println!(
+    crate::say!(
         "  particles   {fluid} fluid + {walls} wall = {}{}",
         fluid + walls,
         if carved > 0 {
@@ -214,19 +258,19 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
             String::new()
         }
     );
-    println!(
+    crate::say!(
         "  kernel      {}, h = {} (dx = {}), about {:.0} neighbours each",
         scene.kernel.name(),
         scene.h(),
         scene.dx,
         e.neighbors
     );
-    println!(
+    crate::say!(
         "  memory      about {:.2} GiB per run (limit {:.2} GiB)",
         bytes / (1u64 << 30) as f64,
         scene.limits.memory_bytes() / (1u64 << 30) as f64
     );
-    println!(
+    crate::say!(
         "  steps       {} of dt = {} to t = {}{} per scheme",
         steps + usize::from(rest.is_some()),
         scene.dt,
@@ -237,7 +281,7 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
             ""
         }
     );
-    println!(
+    crate::say!(
         "  effects     {}",
         if effects.is_empty() {
             "none".to_string()
@@ -246,7 +290,7 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
         }
     );
     let config = scene.sim_config();
-    println!(
+    crate::say!(
         "  operators   {} pressure gradient, {}renormalised, {} Laplacian, DG Hessian {}",
         match config.gradient {
             sph_operators::GradientForm::Difference => "difference Σ V_j (p_j − p_i) ∇W_ij",
@@ -263,13 +307,13 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
             sph_operators::HessianForm::QuadraticFit => "quadratic_fit",
         }
     );
-    println!(
+    crate::say!(
         "  solver      {} (tolerance {:e})",
         scene.solver.name(),
         scene.sim_config().solve.rel_tolerance
     );
     let d = scene.diagnostics();
-    println!(
+    crate::say!(
         "  diagnostics {}",
         match (d.det_f, d.div_u) {
             (false, false) => "none".to_string(),
@@ -283,7 +327,7 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
     );
     if !scene.check.is_empty() {
         for c in &scene.check {
-            println!(
+            crate::say!(
                 "  check       {} {}{}",
                 c.quantity,
                 c.min.map_or(String::new(), |m| format!("≥ {m} ")),

@@ -10,6 +10,7 @@
 //! * [`vtk`] — ParaView `.vtp` frames and the `.pvd` index.
 //! * [`summary`] — the typed `summary.json` and `<run>.run.json`.
 //! * [`report`] — `report.md` and its SVG figures from an output directory.
+//! * [`signals`] — SIGINT and SIGTERM stop a run after its step, with a checkpoint.
 //!
 //! Start with [`session::run_scene`].
 
@@ -19,8 +20,37 @@ pub mod output;
 pub mod overrides;
 pub mod report;
 pub mod session;
+pub mod signals;
 pub mod summary;
 pub mod vtk;
+
+/// `println!` that ignores a closed or failing stdout (`dgsph run … | head -1`): the run goes
+/// on and writes its files; only the terminal lines are lost.
+#[macro_export]
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// `print!` that ignores a closed or failing stdout (see [`say!`]).
+#[macro_export]
+macro_rules! say_part {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// `eprintln!` that ignores a closed or failing stderr (see [`say!`]).
+#[macro_export]
+macro_rules! warn {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
 
 /// The revision of the working tree (`git rev-parse HEAD`, with `-dirty` if it has changes),
 /// or `"unknown"`.

@@ -40,12 +40,16 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     // Run on a worker of the global rayon pool: a parallel loop started from a worker runs its
     // short parts inline instead of waking the pool (see ARCHITECTURE.md).
+    if let Err(e) = dgsph::cli::start_thread_pool() {
+        dgsph::warn!("error: {e}");
+        return ExitCode::from(e.exit_code());
+    }
     let code = rayon::scope(|_| match cli.command {
         Command::Run(args) => dgsph::cli::run(&args),
         Command::Check(args) => dgsph::cli::check(&args),
         Command::Report(args) => match dgsph::report::write(&args.dir) {
             Ok(p) => {
-                println!("report: {}", p.display());
+                dgsph::say!("report: {}", p.display());
                 Ok(exit::OK)
             }
             Err(e) => Err(AppError::Input(e)),
@@ -54,7 +58,7 @@ fn main() -> ExitCode {
     match code {
         Ok(c) => ExitCode::from(c),
         Err(e) => {
-            eprintln!("error: {e}");
+            dgsph::warn!("error: {e}");
             ExitCode::from(e.exit_code())
         }
     }

@@ -46,6 +46,8 @@ pub struct McapSink {
     /// The context owns the sink registrations; it must live as long as the channels.
     _ctx: Arc<foxglove::Context>,
     writer: Option<McapWriterHandle<BufWriter<std::fs::File>>>,
+    /// The file (named in errors).
+    path: std::path::PathBuf,
     particles: Channel<PointCloud>,
     metrics: Arc<RawChannel>,
 }
@@ -74,6 +76,7 @@ impl McapSink {
         Ok(Self {
             _ctx: ctx,
             writer: Some(writer),
+            path: path.to_path_buf(),
             particles,
             metrics,
         })
@@ -96,7 +99,8 @@ impl McapSink {
         self.metrics
             .log_with_meta(&bytes, foxglove::PartialMetadata::with_log_time(t_ns));
         if let Some(w) = &self.writer {
-            w.flush().context("flushing the MCAP file")?;
+            w.flush()
+                .with_context(|| format!("writing {}", self.path.display()))?;
         }
         Ok(())
     }
@@ -105,7 +109,8 @@ impl McapSink {
     /// readable file.
     pub fn finish(&mut self) -> anyhow::Result<()> {
         if let Some(w) = self.writer.take() {
-            w.close().context("finishing the MCAP file")?;
+            w.close()
+                .with_context(|| format!("finishing {}", self.path.display()))?;
         }
         Ok(())
     }

@@ -83,7 +83,7 @@ impl Progress {
             } else {
                 "?".into()
             };
-            eprintln!(
+            crate::warn!(
                 "  {}: step {step}, t = {t:.6} of {t_end} ({:.1} %), {elapsed:.0} s, ETA {eta}",
                 self.label,
                 100.0 * frac

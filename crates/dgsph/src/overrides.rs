@@ -109,7 +109,12 @@ impl Overrides {
             scene.solver_tolerance = Some(t);
         }
         if let Some(th) = self.div_r_threshold {
-            let spec = scene.free_surface.unwrap_or_default();
+            let Some(spec) = scene.free_surface else {
+                return Err(AppError::Input(anyhow::anyhow!(
+                    "--div-r-threshold applies to scenes with a free surface; this one has no \
+                     [free_surface] table"
+                )));
+            };
             scene.free_surface = Some(FreeSurfaceSpec {
                 div_r_threshold: Some(th),
                 ..spec

@@ -393,7 +393,7 @@ fn scan(dir: &Path) -> anyhow::Result<BTreeMap<String, Vec<RunRecord>>> {
             std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
         match serde_json::from_str::<RunRecord>(&text) {
             Ok(r) => out.entry(r.name.clone()).or_default().push(r),
-            Err(e) => eprintln!("report: skipping {}: {e}", p.display()),
+            Err(e) => crate::warn!("report: skipping {}: {e}", p.display()),
         }
     }
     for runs in out.values_mut() {
@@ -419,6 +419,13 @@ pub fn write(dir: &Path) -> anyhow::Result<PathBuf> {
         Ok(t) => Some(serde_json::from_str(&t).context("summary.json does not match its schema")?),
         Err(_) => None,
     };
+    if runs.is_empty() && summary.is_none() {
+        anyhow::bail!(
+            "{} holds no run to report: no readable <run>.run.json and no summary.json (the \
+             output directory of `dgsph run` or `cargo xtask validate`)",
+            dir.display()
+        );
+    }
     let mut md = String::from("# dgsph report\n\n");
     if let Some(s) = &summary {
         let _ = writeln!(

@@ -21,6 +21,14 @@ pub enum AppError {
     Run(anyhow::Error),
     /// Results could not be written (exit 4).
     Output(anyhow::Error),
+    /// A signal stopped the run after a step; its checkpoint and `run.json` are written
+    /// (exit `code`: 128 + the signal's number).
+    Interrupted {
+        /// What was stopped and how to continue.
+        message: String,
+        /// The exit code.
+        code: u8,
+    },
 }
 
 impl std::fmt::Display for AppError {
@@ -28,6 +36,7 @@ impl std::fmt::Display for AppError {
         match self {
             AppError::Input(e) | AppError::Run(e) => write!(f, "{e:#}"),
             AppError::Output(e) => write!(f, "writing results: {e:#}"),
+            AppError::Interrupted { message, .. } => write!(f, "{message}"),
         }
     }
 }
@@ -41,6 +50,7 @@ impl AppError {
             AppError::Input(_) => exit::BAD_INPUT,
             AppError::Run(_) => exit::RUN_FAILED,
             AppError::Output(_) => exit::OUTPUT_FAILED,
+            AppError::Interrupted { code, .. } => *code,
         }
     }
 }
@@ -57,6 +67,9 @@ pub mod exit {
     pub const RUN_FAILED: u8 = 3;
     /// Results could not be written.
     pub const OUTPUT_FAILED: u8 = 4;
+    /// SIGINT stopped the run after a step (checkpoint and `run.json` written; `--resume`
+    /// continues it). SIGTERM: 143.
+    pub const INTERRUPTED: u8 = 130;
 }
 
 /// How to run a scene.
@@ -78,6 +91,8 @@ pub struct RunOptions {
     pub progress_every: f64,
     /// Print a line per scheme and its pass breakdown.
     pub verbose: bool,
+    /// Stop after the step in progress when this is set (SIGINT, SIGTERM).
+    pub stop: Option<crate::signals::Stop>,
 }
 
 /// What running a scene produced.
@@ -200,7 +215,7 @@ fn phases(run: &SchemeRun) -> std::collections::BTreeMap<String, PhaseRecord> {
 /// The pass breakdown of a run as text lines (seconds, share of the step time, runs per step).
 pub fn breakdown(run: &SchemeRun) -> String {
     let total: f64 = Phase::ALL.iter().map(|p| run.phases.seconds(*p)).sum();
-    let steps = run.steps_taken.max(1) as f64;
+    let steps = run.segment_steps.max(1) as f64;
     let mut s = String::new();
     for p in Phase::ALL.iter().filter(|p| run.phases.ran(**p)) {
         let sec = run.phases.seconds(*p);
@@ -218,13 +233,105 @@ pub fn breakdown(run: &SchemeRun) -> String {
         .filter(|p| !run.phases.ran(**p))
         .map(|p| p.name())
         .collect();
-    if !absent.is_empty() && run.steps_taken > 0 {
+    if !absent.is_empty() && run.segment_steps > 0 {
         s.push_str(&format!("      not run: {}\n", absent.join(", ")));
     }
     s
 }
 
-/// Runs every scheme of `scene` (already preset-adjusted) into `opts.out`.
+/// Where a scheme of a resumed scene starts, from what an earlier run of it left in the output
+/// directory (`<run>.run.json` exists exactly when the scheme's run ended: completed, failed or
+/// interrupted).
+enum Start {
+    /// From t = 0 (not started before, or stopped before its first checkpoint).
+    Fresh,
+    /// From its checkpoint (interrupted, killed, or completed to an earlier end time).
+    From(Box<Checkpoint>),
+    /// Finished: completed to this scene's end, or stopped at a failed step. Left as it is.
+    Finished(Box<RunRecord>),
+}
+
+/// The step count of `scene`'s run (a shorter last step included).
+fn last_step(scene: &Scene) -> usize {
+    let (full, rest) = scene.steps();
+    full + usize::from(rest.is_some())
+}
+
+fn read_record(path: &Path) -> Result<RunRecord, AppError> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("reading {}", path.display()))
+        .map_err(AppError::Input)?;
+    serde_json::from_str(&text)
+        .with_context(|| {
+            format!(
+                "--resume: {} is not a run record (delete it to run that scheme again)",
+                path.display()
+            )
+        })
+        .map_err(AppError::Input)
+}
+
+/// Where `scheme` resumes (see [`Start`]).
+fn resume_start(
+    scene: &Scene,
+    scheme: SchemeKind,
+    record: &Path,
+    checkpoint: &Path,
+) -> Result<Start, AppError> {
+    if record.exists() {
+        let r = read_record(record)?;
+        let extend = r.status == "completed" && r.step < last_step(scene);
+        if r.status != "interrupted" && !extend {
+            // Its checkpoint, where there is one, must be of this scene.
+            if checkpoint.exists() {
+                read_checkpoint(checkpoint, scene, scheme)?;
+            }
+            return Ok(Start::Finished(Box::new(r)));
+        }
+    } else if !checkpoint.exists() {
+        return Ok(Start::Fresh);
+    }
+    read_checkpoint(checkpoint, scene, scheme).map(|c| Start::From(Box::new(c)))
+}
+
+/// Holds `<out>/.dgsph.lock` for the life of the returned file: a second run into the same
+/// directory is refused instead of interleaving its files with this one's. The lock goes with
+/// the process (also when it is killed).
+fn lock_output(out: &Path) -> Result<std::fs::File, AppError> {
+    let path = out.join(".dgsph.lock");
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .with_context(|| format!("creating the lock {}", path.display()))
+        .map_err(AppError::Output)?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(AppError::Input(anyhow::anyhow!(
+            "output directory {} is in use by another dgsph run (it holds {}); wait for that \
+             run or choose another --out",
+            out.display(),
+            path.display()
+        ))),
+        Err(std::fs::TryLockError::Error(e)) => Err(AppError::Output(
+            anyhow::Error::from(e).context(format!("locking {}", path.display())),
+        )),
+    }
+}
+
+/// The run record of a finished run, its results as numbers again (`null` → NaN).
+fn recorded_results(r: &RunRecord) -> sph_cases::Results {
+    r.results
+        .iter()
+        .map(|(k, v)| (k.clone(), v.unwrap_or(f64::NAN)))
+        .collect()
+}
+
+/// Runs every scheme of `scene` (already preset-adjusted) into `opts.out`. With
+/// `opts.resume`, a scheme that finished is left as it is (its record and checks read back), an
+/// interrupted one continues from its checkpoint, one never started starts; when every scheme
+/// had finished nothing runs.
 pub fn run_scene(
     scene: &Scene,
     refs: &References,
@@ -235,29 +342,113 @@ pub fn run_scene(
     std::fs::create_dir_all(&opts.out)
         .with_context(|| format!("creating {}", opts.out.display()))
         .map_err(AppError::Output)?;
+    let _lock = lock_output(&opts.out)?;
     let mut scene = scene.clone();
     if let Some(f) = opts.frame_every {
         scene.output.frame_every = Some(f);
     }
+    let run_name = |scheme: SchemeKind| format!("{}_{}", opts.name, scheme.name());
+    let record_path = |run: &str| opts.out.join(format!("{run}.run.json"));
+    // Where each scheme starts, decided before anything runs: an unusable checkpoint stops the
+    // command before it has changed a file.
+    let starts = scene
+        .schemes
+        .iter()
+        .map(|&scheme| {
+            let run = run_name(scheme);
+            if opts.resume {
+                resume_start(
+                    &scene,
+                    scheme,
+                    &record_path(&run),
+                    &checkpoint_path(&opts.out, &run),
+                )
+            } else {
+                Ok(Start::Fresh)
+            }
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if opts.resume && starts.iter().all(|s| matches!(s, Start::Fresh)) {
+        return Err(AppError::Input(anyhow::anyhow!(
+            "--resume: nothing of {} to resume in {}: no checkpoint ({}) and no run record (run \
+             without --resume to start, with --checkpoint-every N to write checkpoints)",
+            opts.name,
+            opts.out.display(),
+            checkpoint_path(&opts.out, &run_name(scene.schemes[0])).display()
+        )));
+    }
+    if opts.resume && starts.iter().all(|s| matches!(s, Start::Finished(_))) && opts.verbose {
+        crate::say!(
+            "  nothing to resume: every scheme of {} in {} has finished",
+            opts.name,
+            opts.out.display()
+        );
+    }
     let mut outcome = SceneOutcome::default();
     let mut results = Vec::new();
-    for &scheme in &scene.schemes {
-        let run = format!("{}_{}", opts.name, scheme.name());
+    for (&scheme, start) in scene.schemes.iter().zip(starts) {
+        let run = run_name(scheme);
         let cpath = checkpoint_path(&opts.out, &run);
-        let resume = if opts.resume {
-            let c = read_checkpoint(&cpath, &scene, scheme)?;
-            if opts.verbose {
-                println!(
-                    "  {run}: resuming from step {} (t = {}) in {}",
-                    c.step,
-                    c.t,
-                    cpath.display()
-                );
+        let rpath = record_path(&run);
+        let resume = match start {
+            Start::Finished(record) => {
+                if opts.verbose {
+                    crate::say!(
+                        "  {run}: finished earlier ({} at t = {}); left as it is",
+                        record.status,
+                        record.t
+                    );
+                }
+                let values = recorded_results(&record);
+                let failure = record.status.strip_prefix("failed: ");
+                let checks = registry::run_checks(&scene, scheme, refs, &values, record.t, failure);
+                if failure.is_some() {
+                    outcome.failed_runs += 1;
+                    outcome.unexpected_failed_runs += usize::from(
+                        sph_cases::run::run_completes_check(&scene, scheme, &run, "")
+                            .known_failure
+                            .is_none(),
+                    );
+                }
+                outcome.checks.extend(checks.into_iter().map(|mut c| {
+                    c.case = format!("{}/{}", c.case, opts.name);
+                    c
+                }));
+                outcome.runs.push(*record);
+                results.push((scheme, values));
+                continue;
             }
-            Some(c)
-        } else {
-            None
+            Start::From(c) => {
+                if opts.verbose {
+                    crate::say!(
+                        "  {run}: resuming from step {} (t = {}) in {}",
+                        c.step,
+                        c.t,
+                        cpath.display()
+                    );
+                }
+                Some(c)
+            }
+            Start::Fresh => {
+                if opts.resume && opts.verbose {
+                    crate::say!("  {run}: no checkpoint; starting at t = 0");
+                }
+                // A checkpoint of an earlier run in this directory must not be resumed as
+                // this run's.
+                if cpath.exists() {
+                    std::fs::remove_file(&cpath)
+                        .with_context(|| format!("removing {}", cpath.display()))
+                        .map_err(AppError::Output)?;
+                }
+                None
+            }
         };
+        // The record is written when the run ends; until then there is none.
+        if rpath.exists() {
+            std::fs::remove_file(&rpath)
+                .with_context(|| format!("removing {}", rpath.display()))
+                .map_err(AppError::Output)?;
+        }
         let meta = CheckpointMeta {
             dgsph: env!("CARGO_PKG_VERSION").to_string(),
             case: scene.case.name().to_string(),
@@ -286,9 +477,10 @@ pub fn run_scene(
             },
         );
         let control = RunControl {
-            resume: resume.as_ref(),
+            resume: resume.as_deref(),
             checkpoint_every: opts.checkpoint_every,
             checkpoint_meta: meta_json,
+            stop: opts.stop.as_ref().map(|s| s.flag.as_ref()),
         };
         let result = registry::run_scheme(&scene, scheme, refs, control, &mut files);
         let finished = files.finish();
@@ -302,7 +494,7 @@ pub fn run_scene(
             Err(
                 e @ (CaseError::Measure { .. } | CaseError::Step { .. } | CaseError::Settle(_)),
             ) => {
-                eprintln!(
+                crate::warn!(
                     "  {run}: FAILED: {e} (rows so far in {})",
                     files.csv_path().display()
                 );
@@ -327,7 +519,7 @@ pub fn run_scene(
                     .known_failure
                     .is_none(),
             );
-            eprintln!(
+            crate::warn!(
                 "  {run}: FAILED: {e} (rows so far in {})",
                 files.csv_path().display()
             );
@@ -353,10 +545,11 @@ pub fn run_scene(
                 .get("solver_iterations_mean")
                 .copied()
                 .unwrap_or(0.0),
-            status: r
-                .failure
-                .as_ref()
-                .map_or("completed".to_string(), |e| format!("failed: {e}")),
+            status: match (&r.failure, r.interrupted) {
+                (Some(e), _) => format!("failed: {e}"),
+                (None, true) => "interrupted".to_string(),
+                (None, false) => "completed".to_string(),
+            },
             results: r
                 .results
                 .iter()
@@ -367,14 +560,27 @@ pub fn run_scene(
         let json = serde_json::to_vec_pretty(&record)
             .context("encoding the run record")
             .map_err(AppError::Output)?;
-        let path = opts.out.join(format!("{run}.run.json"));
-        crate::output::write_atomic(&path, &json)
-            .with_context(|| format!("writing {}", path.display()))
+        crate::output::write_atomic(&rpath, &json)
+            .with_context(|| format!("writing {}", rpath.display()))
             .map_err(AppError::Output)?;
+        if r.interrupted {
+            let stop = opts.stop.as_ref();
+            return Err(AppError::Interrupted {
+                message: format!(
+                    "{}: {run} stopped after step {} (t = {}); its checkpoint is {}; `--resume` \
+                     continues the scene",
+                    stop.map_or("stopped", |s| s.signal_name()),
+                    r.step,
+                    r.t,
+                    cpath.display()
+                ),
+                code: stop.map_or(exit::INTERRUPTED, |s| s.exit_code()),
+            });
+        }
         if opts.verbose {
             let n = (r.particles.0 + r.particles.1) as f64;
-            let per_step = r.wall_s / r.steps_taken.max(1) as f64;
-            println!(
+            let per_step = r.wall_s / r.segment_steps.max(1) as f64;
+            crate::say!(
                 "  {run:<36} fluid={} walls={}{} steps={} t={:.4} iters/step {:.1}  {:.4} s/step  {:.3e} particle-steps/s  [{:.1} s]  {}",
                 r.particles.0,
                 r.particles.1,
@@ -406,9 +612,9 @@ pub fn run_scene(
                 )
                 .collect();
             if !key.is_empty() {
-                println!("      {}", key.join("  "));
+                crate::say!("      {}", key.join("  "));
             }
-            print!("{}", breakdown(&r));
+            crate::say_part!("{}", breakdown(&r));
         }
         outcome.checks.extend(r.checks.iter().cloned().map(|mut c| {
             c.case = format!("{}/{}", c.case, opts.name);

@@ -43,17 +43,18 @@ pub struct RunRecord {
     pub fluid: usize,
     /// Wall particles.
     pub walls: usize,
-    /// Steps taken by this process (a resumed run starts at its checkpoint's step).
+    /// Steps taken over the whole run (a resumed run's earlier segments included).
     pub steps: usize,
     /// The step count reached.
     pub step: usize,
     /// The time reached.
     pub t: f64,
-    /// Wall time of the run in seconds.
+    /// Wall time of the run in seconds (of a resumed run: its last segment).
     pub wall_s: f64,
     /// Mean pressure-solver iterations per step.
     pub solver_iters_mean: f64,
-    /// `completed`, or `failed: <the step error>`.
+    /// `completed`, `interrupted` (a signal stopped it after a step; its checkpoint continues
+    /// it), or `failed: <the step error>`.
     pub status: String,
     /// Named results of the run (`null`: not finite, e.g. no steady state reached).
     pub results: BTreeMap<String, Option<f64>>,

@@ -1069,6 +1069,13 @@ fn cases() -> Vec<Case> {
             "did not converge",
         ),
         (
+            "taylor-green at 100x the time step under pc",
+            TG,
+            "dt = 1e-3\nt_end = 0.005\nschemes = [\"dg\"]",
+            "dt = 0.1\nt_end = 0.5\nschemes = [\"predictor_corrector\"]",
+            "blow-up",
+        ),
+        (
             "displacement limit tiny",
             TANK,
             "[output]",
@@ -1081,6 +1088,154 @@ fn cases() -> Vec<Case> {
         case.codes = &[3];
         c.push(case);
     }
+    // Issue 48's inputs that got through: sizes that underflow, a run of no step, blocks that
+    // never meet their walls or overflow their periodic box, a 3D vertex in 2D, a snapshot
+    // never reached, a flag that does not apply.
+    for (name, base, from, to, expect) in [
+        (
+            "dx 5e-324",
+            TANK,
+            "dx = 0.05",
+            "dx = 5e-324",
+            "too small to count",
+        ),
+        (
+            "dx 1e-300",
+            TANK,
+            "dx = 0.05",
+            "dx = 1e-300",
+            "too small to count",
+        ),
+        ("cavity dx 1e-300", CAVITY, "dx = 0.1", "dx = 1e-300", "dx"),
+        (
+            "dt 1e9 t_end",
+            TANK,
+            "dt = 1e-3",
+            "dt = 5e6",
+            "no full step",
+        ),
+        (
+            "dt just over t_end",
+            TANK,
+            "dt = 1e-3",
+            "dt = 0.006",
+            "no full step",
+        ),
+        (
+            "fluid beside its container",
+            TANK,
+            "min = [0.0, 0.0]
+max = [0.5, 0.5]
+hydrostatic",
+            "min = [3.0, 0.0]
+max = [3.5, 0.5]
+hydrostatic",
+            "outside every container",
+        ),
+        (
+            "fluid below its container",
+            TANK,
+            "min = [0.0, 0.0]
+max = [0.5, 0.5]
+hydrostatic",
+            "min = [0.0, -2.0]
+max = [0.5, -1.5]
+hydrostatic",
+            "outside every container",
+        ),
+        (
+            "fluid larger than its periodic box",
+            TG,
+            "min = [0.0, 0.0]
+max = [1.0, 1.0]
+velocity_field",
+            "min = [0.0, 0.0]
+max = [2.0, 1.0]
+velocity_field",
+            "beyond the periodic",
+        ),
+        (
+            "fluid outside its periodic box",
+            TG,
+            "min = [0.0, 0.0]
+max = [1.0, 1.0]
+velocity_field",
+            "min = [0.0, 1.5]
+max = [1.0, 2.5]
+velocity_field",
+            "beyond the periodic",
+        ),
+        (
+            "polygon vertex with z",
+            TANK,
+            "shape = \"box\"\nmin = [0.0, 0.0]\nmax = [0.5, 0.5]",
+            "shape = \"polygon\"\nvertices = [[0.0, 0.0], [0.5, 0.0, 1.0], [0.5, 0.5]]",
+            "vertex 1 has 3 coordinates",
+        ),
+        (
+            "rho0 1e300",
+            TANK,
+            "dt = 1e-3",
+            "dt = 1e-3\nrho0 = 1e300",
+            "rho0",
+        ),
+        (
+            "rho0 1e-300",
+            TANK,
+            "dt = 1e-3",
+            "dt = 1e-3\nrho0 = 1e-300",
+            "rho0",
+        ),
+        (
+            "gravity 1e300",
+            TANK,
+            "gravity = [0.0, -9.81, 0.0]",
+            "gravity = [0.0, -1e300, 0.0]",
+            "effects.gravity",
+        ),
+        (
+            "velocity 1e200",
+            TANK,
+            "velocity = [0.0, 0.0]",
+            "velocity = [0.0, 1e200]",
+            "fluid[0].velocity",
+        ),
+        (
+            "pressure scale 5e100",
+            TANK,
+            "dt = 1e-3",
+            "dt = 1e-3\nrho0 = 1e100",
+            "pressures of about",
+        ),
+        (
+            "fluid inside a solid wall",
+            TANK,
+            "layers = 3\n",
+            "layers = 3\n[[wall]]\nkind = \"solid\"\nmin = [-0.1, -0.1]\nmax = [0.6, 0.6]\n",
+            "inside the solid wall[1]",
+        ),
+        (
+            "snapshot after t_end",
+            CAVITY,
+            "snapshots = [0.02]",
+            "snapshots = [0.5]",
+            "never be written",
+        ),
+    ] {
+        c.push(scene_case(name, base, from, to, expect));
+    }
+    let mut tiny = scene_case("--dx 1e-300", TANK, "dx", "dx", "too small to count");
+    tiny.args = vec!["run".into(), "--dx".into(), "1e-300".into()];
+    c.push(tiny);
+    let mut flag = scene_case(
+        "--div-r-threshold without a free surface",
+        CAVITY,
+        "dx",
+        "dx",
+        "free surface",
+    );
+    flag.args = vec!["run".into(), "--div-r-threshold".into(), "1.5".into()];
+    c.push(flag);
     c
 }
 
@@ -1196,6 +1351,9 @@ fn checkpoints_with_impossible_values_are_refused() {
         "2",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // As if killed after its last checkpoint: no run record, so --resume continues the
+    // checkpoint (a finished scheme would be left as it is).
+    std::fs::remove_file(out.join("c_dg.run.json")).unwrap();
     let path = out.join("c_dg.checkpoint");
     let good = Checkpoint::decode(&std::fs::read(&path).unwrap()).unwrap();
     for (what, edit) in [
@@ -1292,5 +1450,35 @@ fn report_survives_cut_off_files() {
     let o = dgsph(&["report", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert!(out.join("report.md").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A scene file whose name cannot prefix output files (spaces, accents, 200 characters): the
+/// error names the file and suggests `--tag`; with `--tag` the same scene runs.
+#[test]
+fn a_scene_name_that_cannot_name_files_suggests_tag() {
+    let dir = scratch("names");
+    for stem in ["my scene", "scène", &"s".repeat(200)] {
+        let path = dir.join(format!("{stem}.toml"));
+        std::fs::write(&path, CAVITY).unwrap();
+        let out = dir.join("o");
+        let o = dgsph(&[
+            "run",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{stem}: {}", text(&o));
+        assert!(text(&o).contains("--tag"), "{stem}: {}", text(&o));
+        let o = dgsph(&[
+            "run",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--tag",
+            "named",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{stem}: {}", text(&o));
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -82,7 +82,9 @@ pub struct FluidBlock {
     pub semi_axes: Option<Vec<f64>>,
     /// Circle: radius.
     pub radius: Option<f64>,
-    /// Polygon: vertices `[[x, y], ...]` in order (2D).
+    /// Polygon: vertices `[[x, y], ...]` in order (2D; a vertex with another number of
+    /// coordinates is an error, not truncated).
+    #[serde(default, deserialize_with = "vertex_pairs")]
     pub vertices: Option<Vec<[f64; 2]>>,
     /// Lattice placement. Default `staggered`.
     #[serde(default)]
@@ -100,6 +102,26 @@ pub struct FluidBlock {
     /// Random displacement of each particle by up to this fraction of `dx` per axis (a
     /// disordered start; seeded, so runs repeat). Default 0.
     pub jitter: Option<f64>,
+}
+
+/// Polygon vertices, each exactly `[x, y]`.
+fn vertex_pairs<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Vec<[f64; 2]>>, D::Error> {
+    use serde::de::Error;
+    let v: Option<Vec<Vec<f64>>> = Option::deserialize(d)?;
+    v.map(|v| {
+        v.iter()
+            .enumerate()
+            .map(|(i, p)| {
+                <[f64; 2]>::try_from(p.as_slice()).map_err(|_| {
+                    D::Error::custom(format!(
+                        "vertex {i} has {} coordinates; a polygon is 2D: [x, y]",
+                        p.len()
+                    ))
+                })
+            })
+            .collect()
+    })
+    .transpose()
 }
 
 /// What a `[[wall]]` box does.

@@ -175,7 +175,92 @@ pub trait Case<D: Dim>: Send {
     fn checks(&self, _scheme: SchemeKind, _label: &str, _results: &Results) -> Vec<Check> {
         Vec::new()
     }
+
+    /// What this case's measurements have accumulated so far (maxima, histories, the values
+    /// taken at the start), for a checkpoint: a resumed run restores it
+    /// ([`Case::restore_state`]) so that its results cover the whole run. Default: nothing.
+    fn save_state(&self) -> Vec<u8> {
+        Vec::new()
+    }
+
+    /// Restores what [`Case::save_state`] wrote (after [`Case::start`]). Default: nothing.
+    fn restore_state(&mut self, _bytes: &[u8]) -> Result<(), CaseError> {
+        Ok(())
+    }
 }
+
+/// A case's run state as named fields, encoded as one CBOR map (every `f64`, NaN included,
+/// exactly): [`Case::save_state`] puts its fields, [`StateReader`] reads them back by name.
+#[derive(Default)]
+pub struct StateWriter(Vec<(ciborium::Value, ciborium::Value)>);
+
+impl StateWriter {
+    /// Adds field `name`.
+    pub fn put<T: serde::Serialize + ?Sized>(&mut self, name: &str, value: &T) {
+        let v = ciborium::Value::serialized(value).expect("in-memory CBOR encoding");
+        self.0.push((ciborium::Value::Text(name.into()), v));
+    }
+
+    /// The encoded map.
+    pub fn finish(self) -> Vec<u8> {
+        let mut out = Vec::new();
+        ciborium::into_writer(&ciborium::Value::Map(self.0), &mut out)
+            .expect("writing CBOR to memory");
+        out
+    }
+}
+
+/// Reads the fields a [`StateWriter`] wrote; a missing or mistyped field is a
+/// [`CaseError::Resume`] naming it.
+pub struct StateReader(Vec<(ciborium::Value, ciborium::Value)>);
+
+impl StateReader {
+    /// Decodes `bytes` (a map written by [`StateWriter::finish`]).
+    pub fn new(bytes: &[u8]) -> Result<Self, CaseError> {
+        match ciborium::from_reader::<ciborium::Value, _>(bytes) {
+            Ok(ciborium::Value::Map(m)) => Ok(Self(m)),
+            Ok(_) => Err(CaseError::Resume(
+                "the checkpoint's run state is not a map of fields".into(),
+            )),
+            Err(e) => Err(CaseError::Resume(format!(
+                "the checkpoint's run state cannot be read: {e}"
+            ))),
+        }
+    }
+
+    /// Field `name`.
+    pub fn get<T: serde::de::DeserializeOwned>(&self, name: &str) -> Result<T, CaseError> {
+        let v = self
+            .0
+            .iter()
+            .find(|(k, _)| k.as_text() == Some(name))
+            .map(|(_, v)| v)
+            .ok_or_else(|| {
+                CaseError::Resume(format!("the checkpoint's run state has no `{name}`"))
+            })?;
+        v.deserialized()
+            .map_err(|e| CaseError::Resume(format!("the checkpoint's run state: `{name}`: {e}")))
+    }
+}
+
+/// `save_state` and `restore_state` of a [`Case`] whose run state is the listed fields of
+/// `self` (each `Serialize + DeserializeOwned`), stored under their names.
+macro_rules! state_fields {
+    ($($field:ident),* $(,)?) => {
+        fn save_state(&self) -> Vec<u8> {
+            let mut w = $crate::case::StateWriter::default();
+            $( w.put(stringify!($field), &self.$field); )*
+            w.finish()
+        }
+
+        fn restore_state(&mut self, bytes: &[u8]) -> Result<(), $crate::CaseError> {
+            let r = $crate::case::StateReader::new(bytes)?;
+            $( self.$field = r.get(stringify!($field))?; )*
+            Ok(())
+        }
+    };
+}
+pub(crate) use state_fields;
 
 #[cfg(test)]
 mod tests {

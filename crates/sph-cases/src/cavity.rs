@@ -245,6 +245,24 @@ impl<D: Dim> CavityCase<D> {
 }
 
 impl<D: Dim> Case<D> for CavityCase<D> {
+    fn save_state(&self) -> Vec<u8> {
+        let mut w = crate::case::StateWriter::default();
+        w.put("energy", &self.energy);
+        w.put("drift", &self.drift);
+        w.put("measured_at", &self.measured_at);
+        w.put("rho_initial", &self.probe.rho_initial);
+        w.finish()
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), CaseError> {
+        let r = crate::case::StateReader::new(bytes)?;
+        self.energy = r.get("energy")?;
+        self.drift = r.get("drift")?;
+        self.measured_at = r.get("measured_at")?;
+        self.probe.rho_initial = r.get("rho_initial")?;
+        Ok(())
+    }
+
     fn velocity_scale(&self) -> Option<f64> {
         self.scene.cavity.as_ref().map(|c| c.lid_speed.abs())
     }

@@ -116,6 +116,24 @@ impl DamBreakCase {
 }
 
 impl<D: Dim> Case<D> for DamBreakCase {
+    fn save_state(&self) -> Vec<u8> {
+        let mut w = crate::case::StateWriter::default();
+        w.put("flow", &Case::<D>::save_state(&self.flow));
+        w.put("errors", &self.errors);
+        w.put("early_max", &self.early_max);
+        w.put("t_impact", &self.t_impact);
+        w.finish()
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), CaseError> {
+        let r = crate::case::StateReader::new(bytes)?;
+        Case::<D>::restore_state(&mut self.flow, &r.get::<Vec<u8>>("flow")?)?;
+        self.errors = r.get("errors")?;
+        self.early_max = r.get("early_max")?;
+        self.t_impact = r.get("t_impact")?;
+        Ok(())
+    }
+
     fn setup(&self) -> Result<Setup<D>, CaseError> {
         Case::<D>::setup(&self.flow)
     }

@@ -87,7 +87,7 @@ pub const DEPARTURE: f64 = 0.05;
 /// stretched drop counts as resolved (`semi_axis_error_resolved_max`, `t_resolved`).
 pub const RESOLVED_ACROSS: f64 = 8.0;
 
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, serde::Serialize, serde::Deserialize)]
 struct LastFull {
     t: f64,
     moments: f64,
@@ -116,6 +116,17 @@ impl DropCase {
 }
 
 impl<D: Dim> Case<D> for DropCase {
+    crate::case::state_fields!(
+        centre,
+        initial,
+        last_full,
+        worst_axis,
+        worst_resolved,
+        t_resolved,
+        worst_volume,
+        departed,
+    );
+
     fn setup(&self) -> Result<Setup<D>, CaseError> {
         let (particles, _) = initial::<D>(&self.scene);
         Ok(Setup {

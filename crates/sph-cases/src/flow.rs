@@ -380,6 +380,40 @@ pub fn isolated_particles<D: Dim>(sim: &Simulation<D>) -> usize {
 }
 
 impl<D: Dim> Case<D> for FlowCase {
+    crate::case::state_fields!(
+        centroid,
+        ke0,
+        ke_rate,
+        hydro,
+        isolated_max,
+        ke_error_max,
+        ke_end,
+        hydro_error,
+        hydro_error_max,
+        fluid,
+        ke_change_max,
+        energy0,
+        energy_rise_max,
+        mass,
+        h_min,
+        settle_rate,
+        settle_speed,
+        settled_speed_max,
+        settled_hydro_max,
+        h_c0,
+        level_change,
+        all_hydrostatic,
+        voids,
+        void_max,
+        centre_exact,
+        centre_first,
+        centre_error,
+        pool,
+        pool_and_falling,
+        t_contact,
+        pool_speed_max,
+    );
+
     fn setup(&self) -> Result<Setup<D>, CaseError> {
         setup::<D>(&self.scene)
     }

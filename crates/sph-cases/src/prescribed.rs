@@ -189,6 +189,8 @@ impl<D: Dim> PrescribedCase<D> {
 }
 
 impl<D: Dim> Case<D> for PrescribedCase<D> {
+    crate::case::state_fields!(series);
+
     fn setup(&self) -> Result<Setup<D>, CaseError> {
         let (semi, _) = paper_setup::<D>();
         let pts = crate::geometry::ellipsoid_lattice::<D>(semi, self.scene.dx);

@@ -59,6 +59,38 @@ pub fn run_scheme(
     }
 }
 
+/// The checks of one scheme's finished run from its recorded results (`t`: the time it
+/// reached; `failure`: its step error, if it stopped at one), as [`run_scheme`] made them: for
+/// a run whose results were read back rather than run again (a resumed scene's finished
+/// schemes).
+pub fn run_checks(
+    scene: &Scene,
+    scheme: SchemeKind,
+    refs: &References,
+    results: &crate::Results,
+    t: f64,
+    failure: Option<&str>,
+) -> Vec<crate::Check> {
+    match scene.dim {
+        3 => crate::run::run_checks::<D3>(
+            scene,
+            scheme,
+            case::<D3>(scene, scheme, refs).as_ref(),
+            results,
+            t,
+            failure,
+        ),
+        _ => crate::run::run_checks::<D2>(
+            scene,
+            scheme,
+            case::<D2>(scene, scheme, refs).as_ref(),
+            results,
+            t,
+            failure,
+        ),
+    }
+}
+
 /// The results a case reports besides the run loop's ([`COMMON_RESULTS`]).
 pub fn case_results(kind: CaseKind) -> Vec<&'static str> {
     match kind {

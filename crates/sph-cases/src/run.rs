@@ -41,6 +41,9 @@ pub struct RunControl<'a> {
     pub checkpoint_every: Option<usize>,
     /// Metadata stored in the checkpoints (the caller's record of the scene).
     pub checkpoint_meta: String,
+    /// Set (by a signal handler, say) to stop the run after the step in progress: a checkpoint
+    /// is handed out and the run ends with [`SchemeRun::interrupted`].
+    pub stop: Option<&'a std::sync::atomic::AtomicBool>,
 }
 
 /// What one scheme's run produced (besides what went to the sink).
@@ -52,13 +55,16 @@ pub struct SchemeRun {
     pub particles: (usize, usize),
     /// Fluid lattice sites left out because they lie in wall material.
     pub carved: usize,
-    /// Steps taken by this run (a resumed run starts at its checkpoint's step).
+    /// Steps taken over the whole run (a resumed run's earlier segments included; settling
+    /// steps not).
     pub steps_taken: usize,
+    /// Steps taken by this process (what [`SchemeRun::phases`] timed).
+    pub segment_steps: usize,
     /// The step count at the end.
     pub step: usize,
     /// Time at the end.
     pub t: f64,
-    /// Wall time of the run in seconds.
+    /// Wall time of this process's part of the run in seconds.
     pub wall_s: f64,
     /// Time per pass, summed over the steps taken.
     pub phases: PhaseTimes,
@@ -68,6 +74,8 @@ pub struct SchemeRun {
     pub checks: Vec<Check>,
     /// The step that failed, if one did (the run stopped there; all before it was handed out).
     pub failure: Option<StepError>,
+    /// The run stopped early at [`RunControl::stop`], after handing out a checkpoint.
+    pub interrupted: bool,
 }
 
 /// The columns every record starts with, before the case's own.
@@ -324,8 +332,9 @@ fn common_values<D: Dim>(
     }
 }
 
-/// Running maxima and sums over a run's steps, for the results.
-#[derive(Default)]
+/// Running maxima and sums over a run's steps, for the results. A checkpoint carries it
+/// ([`RunState`]), so a resumed run's results cover the whole run.
+#[derive(Default, serde::Serialize, serde::Deserialize)]
 struct Tally {
     penetrations: usize,
     intrusion: f64,
@@ -334,7 +343,22 @@ struct Tally {
     guarded: usize,
     iterations: f64,
     steps: usize,
+    /// The sampled extremes of the loop's records: the density error's largest value, and the
+    /// number of records (the frame cadence counts them).
+    density_max: f64,
+    records: usize,
+    #[serde(skip)]
     phases: PhaseTimes,
+}
+
+/// What a checkpoint carries besides the particles: the loop's [`Tally`] and the case's
+/// accumulated measurements ([`Case::save_state`]). No wall-clock time, so that the same run
+/// writes the same checkpoints.
+fn run_state(tally: &Tally, case_state: Vec<u8>) -> Vec<u8> {
+    let mut w = crate::case::StateWriter::default();
+    w.put("tally", tally);
+    w.put("case", &case_state);
+    w.finish()
 }
 
 /// The scene's `[start] settle_steps`: that many steps of the scheme at the scene's `dt`, each
@@ -404,7 +428,7 @@ pub fn run_scheme<D: Dim>(
     columns.extend(case.columns());
     sink.begin(&columns)?;
     let mut values = Vec::with_capacity(columns.len());
-    let mut records = 0usize;
+    let records = std::cell::Cell::new(0usize);
     let mass = sim.particles.masses.first().copied().unwrap_or(0.0);
     let lattice = lattice_density(&sim, scene.dx, mass);
     let velocity_scale = case
@@ -414,7 +438,7 @@ pub fn run_scheme<D: Dim>(
         .iter()
         .position(|c| c.name == "density_error")
         .expect("a common column");
-    let mut density_max = f64::NAN;
+    let density_max = std::cell::Cell::new(f64::NAN);
     let mut emit = |case: &mut Box<dyn Case<D>>,
                     sim: &Simulation<D>,
                     report: Option<&StepReport>,
@@ -423,11 +447,11 @@ pub fn run_scheme<D: Dim>(
      -> Result<(), CaseError> {
         values.clear();
         common_values(sim, report, lattice, &mut values);
-        density_max = density_max.max(values[density_col]);
+        density_max.set(density_max.get().max(values[density_col]));
         case.observe(sim, report, short, &mut values)?;
         debug_assert_eq!(values.len(), columns.len());
-        sink.record(&values, sim, records.is_multiple_of(frame_every))?;
-        records += 1;
+        sink.record(&values, sim, records.get().is_multiple_of(frame_every))?;
+        records.set(records.get() + 1);
         Ok(())
     };
     let mut integrator = Scheme::new(scheme);
@@ -435,9 +459,17 @@ pub fn run_scheme<D: Dim>(
         settle(scene, &mut case, &mut sim, &mut integrator)?;
     }
     case.start(&sim)?;
+    let mut tally = Tally::default();
     if let Some(c) = control.resume {
         sim.restore(c)
             .map_err(|e| CaseError::Resume(e.to_string()))?;
+        if !c.state.is_empty() {
+            let r = crate::case::StateReader::new(&c.state)?;
+            tally = r.get("tally")?;
+            case.restore_state(&r.get::<Vec<u8>>("case")?)?;
+            records.set(tally.records);
+            density_max.set(tally.density_max);
+        }
         let expected = sim.step as f64 * scene.dt;
         if sim.step > last || (sim.t - expected).abs() > 1e-9 * expected.max(scene.dt) {
             return Err(CaseError::Resume(format!(
@@ -458,12 +490,11 @@ pub fn run_scheme<D: Dim>(
             }
         }
     }
-    let mut tally = Tally {
-        penetrations: sim.wall_penetrations(),
-        intrusion: sim.wall_intrusion(),
-        ..Tally::default()
-    };
+    tally.penetrations = tally.penetrations.max(sim.wall_penetrations());
+    tally.intrusion = tally.intrusion.max(sim.wall_intrusion());
     let mut failure = None;
+    let mut segment_steps = 0usize;
+    let mut interrupted = false;
     for k in sim.step + 1..=last {
         let short = k == last && rest.is_some();
         let dt = if short {
@@ -479,6 +510,7 @@ pub fn run_scheme<D: Dim>(
             }
         };
         tally.steps += 1;
+        segment_steps += 1;
         tally.displacement = tally.displacement.max(report.max_displacement);
         tally.guarded += report.wall_guarded;
         tally.iterations += report.solve.iterations as f64;
@@ -496,19 +528,36 @@ pub fn run_scheme<D: Dim>(
                 }
             }
         }
-        if let Some(n) = control.checkpoint_every
-            && (k % n.max(1) == 0 || k == last)
+        let stop = k < last
+            && control
+                .stop
+                .is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed));
+        if stop
+            || control
+                .checkpoint_every
+                .is_some_and(|n| k % n.max(1) == 0 || k == last)
         {
-            sink.checkpoint(&sim.checkpoint(&control.checkpoint_meta))?;
+            tally.records = records.get();
+            tally.density_max = density_max.get();
+            let mut c = sim.checkpoint(&control.checkpoint_meta);
+            c.state = run_state(&tally, case.save_state());
+            sink.checkpoint(&c)?;
             // What the solver keeps between steps is not in the checkpoint: start it afresh,
             // as a run resumed from this checkpoint will.
             sim.invalidate_solver_setup();
         }
         sink.progress(k, sim.t, scene.t_end);
+        if stop {
+            interrupted = true;
+            break;
+        }
     }
     let finish = case.finish(&sim)?;
-    for t in &finish.tables {
-        sink.table(t)?;
+    // The tables of the end of the run: an interrupted run has not ended.
+    if !interrupted {
+        for t in &finish.tables {
+            sink.table(t)?;
+        }
     }
     let mut results = finish.results;
     for (name, value) in [
@@ -532,8 +581,15 @@ pub fn run_scheme<D: Dim>(
             tally.iterations / tally.steps.max(1) as f64,
         ),
         ("wall_seconds", clock.elapsed().as_secs_f64()),
-        ("completed", if failure.is_none() { 1.0 } else { 0.0 }),
-        ("density_error_max", density_max),
+        (
+            "completed",
+            if failure.is_none() && !interrupted {
+                1.0
+            } else {
+                0.0
+            },
+        ),
+        ("density_error_max", density_max.get()),
         (
             "max_speed_ratio",
             tally.speed.max(sim.max_speed()) / velocity_scale,
@@ -541,22 +597,20 @@ pub fn run_scheme<D: Dim>(
     ] {
         results.insert(name.to_string(), value);
     }
-    let label = format!("{} t={:.4}", scheme.name(), sim.t);
-    let mut checks = case.checks(scheme, &label, &results);
-    checks.extend(scene_checks(scene, scheme, &label, &results));
-    if let Some(e) = &failure {
-        checks.push(run_completes_check(
-            scene,
-            scheme,
-            scheme.name(),
-            &e.to_string(),
-        ));
-    }
+    let checks = run_checks(
+        scene,
+        scheme,
+        case.as_ref(),
+        &results,
+        sim.t,
+        failure.as_ref().map(|e| e.to_string()).as_deref(),
+    );
     Ok(SchemeRun {
         scheme,
         particles: counts,
         carved,
         steps_taken: tally.steps,
+        segment_steps,
         step: sim.step,
         t: sim.t,
         wall_s: clock.elapsed().as_secs_f64(),
@@ -564,7 +618,28 @@ pub fn run_scheme<D: Dim>(
         results,
         checks,
         failure,
+        interrupted,
     })
+}
+
+/// The checks of one scheme's run that reached `t` with `results`: the case's built-in ones,
+/// the scene's `[[check]]`s and, for a run that stopped at a failed step (`failure`, its
+/// error), "run completes".
+pub fn run_checks<D: Dim>(
+    scene: &Scene,
+    scheme: SchemeKind,
+    case: &dyn Case<D>,
+    results: &Results,
+    t: f64,
+    failure: Option<&str>,
+) -> Vec<Check> {
+    let label = format!("{} t={t:.4}", scheme.name());
+    let mut checks = case.checks(scheme, &label, results);
+    checks.extend(scene_checks(scene, scheme, &label, results));
+    if let Some(e) = failure {
+        checks.push(run_completes_check(scene, scheme, scheme.name(), e));
+    }
+    checks
 }
 
 /// The checks a scene declares in `[[check]]`, on one scheme's results.

@@ -494,12 +494,39 @@ impl Scene {
             message: clip_lines(&e.to_string(), 160),
         })?;
         scene.validate(name)?;
+        scene.snapshots_in_time(name)?;
         if scene.quick.is_some() {
             scene
                 .quick()
                 .validate(&format!("{name} (with its [quick] overrides)"))?;
         }
         Ok(scene)
+    }
+
+    /// A snapshot time after the scene's own `t_end` would never be written: an error in the
+    /// scene as written (a run shortened by the quick preset or `--t-end` skips it).
+    fn snapshots_in_time(&self, name: &str) -> Result<(), CaseError> {
+        let late = |t: &&f64| **t > self.t_end * (1.0 + 1e-9);
+        let found = [
+            ("output.snapshots", self.output.snapshots.iter().find(late)),
+            (
+                "cavity.snapshots",
+                self.cavity
+                    .as_ref()
+                    .and_then(|c| c.snapshots.iter().find(late)),
+            ),
+        ];
+        match found.into_iter().find_map(|(k, t)| t.map(|t| (k, t))) {
+            Some((field, t)) => Err(CaseError::Invalid {
+                scene: name.to_string(),
+                field: field.into(),
+                message: format!(
+                    "{t} is after t_end = {}: that snapshot would never be written",
+                    self.t_end
+                ),
+            }),
+            None => Ok(()),
+        }
     }
 
     /// The scene with the quick-preset overrides applied.
@@ -648,6 +675,37 @@ impl Scene {
     }
 }
 
+/// Magnitudes allowed for `rho0`, `|g|` and initial speeds (zero aside): far from the `f64`
+/// limits that the pressure solver's squared norms reach (about 1e±308).
+pub const SCALE_RANGE: (f64, f64) = (1e-100, 1e100);
+
+/// The bounding box of a (validated) fluid block: lower and upper corners (unused axes 0).
+fn block_bounds(b: &FluidBlock, dim: usize) -> ([f64; 3], [f64; 3]) {
+    let (mut lo, mut hi) = ([0.0; 3], [0.0; 3]);
+    let at = |v: &Option<Vec<f64>>, k: usize| v.as_ref().and_then(|v| v.get(k)).copied();
+    for k in 0..dim {
+        let (l, h) = match b.shape {
+            FluidShape::Box => (at(&b.min, k), at(&b.max, k)),
+            FluidShape::Ellipse | FluidShape::Ellipsoid => {
+                let (c, a) = (at(&b.center, k), at(&b.semi_axes, k));
+                (c.zip(a).map(|(c, a)| c - a), c.zip(a).map(|(c, a)| c + a))
+            }
+            FluidShape::Circle | FluidShape::Sphere => {
+                let (c, r) = (at(&b.center, k), b.radius);
+                (c.zip(r).map(|(c, r)| c - r), c.zip(r).map(|(c, r)| c + r))
+            }
+            FluidShape::Polygon => {
+                let v = b.vertices.as_deref().unwrap_or_default();
+                let xs = v.iter().filter_map(|p| p.get(k).copied());
+                (xs.clone().reduce(f64::min), xs.reduce(f64::max))
+            }
+        };
+        lo[k] = l.unwrap_or(0.0);
+        hi[k] = h.unwrap_or(0.0);
+    }
+    (lo, hi)
+}
+
 /// Area (2D) or volume (3D) of a fluid block, for estimates (0 for an invalid block).
 fn block_measure(b: &FluidBlock, dim: usize) -> f64 {
     let pi = std::f64::consts::PI;
@@ -784,6 +842,7 @@ impl Validator<'_> {
         if s.rho0.is_some_and(|r| !positive(r)) {
             return self.bad("rho0", "must be a positive number");
         }
+        self.scales()?;
         if let Some(th) = s.free_surface.and_then(|f| f.div_r_threshold) {
             let d = s.dim as f64;
             if !(th.is_finite() && th > 0.0 && th < d) {
@@ -909,6 +968,83 @@ impl Validator<'_> {
         }
     }
 
+    /// The magnitudes that enter the pressure equation: `ρ₀`, `|g|` and the initial speeds
+    /// must lie within [`SCALE_RANGE`] (and `ρ₀ (|g| L + U²)`, the pressure scale, within its
+    /// upper end), or the solver's squared norms overflow or underflow at step 0 — reported
+    /// there as a broken-down solve. Each out-of-range value is named with its key.
+    fn scales(&self) -> Check {
+        let s = self.scene;
+        let (lo, hi) = SCALE_RANGE;
+        let outside = |v: f64| v != 0.0 && !(lo..=hi).contains(&v.abs());
+        let advice = "choose units in which it is moderate (SI for water: 1000 kg/m³, 9.81 m/s²)";
+        let rho = s.rho0();
+        if outside(rho) {
+            return self.bad(
+                "rho0",
+                format!("= {rho:e} is outside [{lo:e}, {hi:e}]; {advice}"),
+            );
+        }
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let g = s.effects.gravity.map_or(0.0, |g| norm(&g));
+        if g > hi {
+            return self.bad(
+                "effects.gravity",
+                format!("has magnitude {g:e}, above {hi:e}; {advice}"),
+            );
+        }
+        let mut speeds: Vec<(String, f64)> = Vec::new();
+        for (i, b) in s.fluid.iter().enumerate() {
+            if let Some(v) = &b.velocity {
+                speeds.push((format!("fluid[{i}].velocity"), norm(v)));
+            }
+            if let Some(f) = &b.velocity_field {
+                let (blo, bhi) = block_bounds(b, s.dim);
+                let size = (0..s.dim).map(|k| bhi[k] - blo[k]).fold(0.0, f64::max);
+                speeds.push((
+                    format!("fluid[{i}].velocity_field"),
+                    f.amplitude.unwrap_or(1.0).abs() + f.omega.unwrap_or(0.0).abs() * size,
+                ));
+            }
+        }
+        for (i, w) in s.wall.iter().enumerate() {
+            if let Some(v) = &w.velocity {
+                speeds.push((format!("wall[{i}].velocity"), norm(v)));
+            }
+            for (f, v) in &w.face_velocity {
+                speeds.push((format!("wall[{i}].face_velocity.{f}"), norm(v)));
+            }
+        }
+        if let Some(c) = &s.cavity {
+            speeds.push(("cavity.lid_speed".into(), c.lid_speed.abs()));
+        }
+        if let Some((key, u)) = speeds.iter().find(|(_, u)| *u > hi) {
+            return self.bad(
+                key.clone(),
+                format!("is a speed of {u:e}, above {hi:e}; {advice}"),
+            );
+        }
+        let u = speeds.iter().map(|(_, u)| *u).fold(0.0, f64::max);
+        let extent = s
+            .fluid
+            .iter()
+            .map(|b| {
+                let (blo, bhi) = block_bounds(b, s.dim);
+                (0..s.dim).map(|k| bhi[k] - blo[k]).fold(0.0, f64::max)
+            })
+            .fold(1.0, f64::max);
+        let pressure = rho * (g * extent + u * u);
+        if pressure > hi {
+            return self.bad(
+                "rho0",
+                format!(
+                    "= {rho:e} with |g| = {g:e} and speeds up to {u:e} gives pressures of about \
+                     {pressure:e}, above {hi:e}; {advice}"
+                ),
+            );
+        }
+        Ok(())
+    }
+
     fn blocks(&self) -> Check {
         let s = self.scene;
         if !s.case.uses_blocks() {
@@ -946,6 +1082,7 @@ impl Validator<'_> {
         if s.wall_condition.is_some() && s.wall.is_empty() {
             return self.bad("wall_condition", "is set, but the scene has no [[wall]]");
         }
+        self.fluid_in_containers()?;
         self.domain()
     }
 
@@ -1153,6 +1290,69 @@ impl Validator<'_> {
         Ok(())
     }
 
+    /// With containers in the scene, every fluid block must overlap the inside of one of them
+    /// (open faces reaching to infinity): a block wholly outside every container would fall
+    /// or drift away past it.
+    fn fluid_in_containers(&self) -> Check {
+        let s = self.scene;
+        let inside: Vec<([f64; 3], [f64; 3])> = s
+            .wall
+            .iter()
+            .filter(|w| w.kind == WallKind::Container)
+            .map(|w| {
+                let (mut lo, mut hi) = ([f64::NEG_INFINITY; 3], [f64::INFINITY; 3]);
+                lo[..s.dim].copy_from_slice(&w.min[..s.dim]);
+                hi[..s.dim].copy_from_slice(&w.max[..s.dim]);
+                for f in &w.open {
+                    if let Some((k, upper)) = crate::blocks::face_index(f) {
+                        if upper {
+                            hi[k] = f64::INFINITY;
+                        } else {
+                            lo[k] = f64::NEG_INFINITY;
+                        }
+                    }
+                }
+                (lo, hi)
+            })
+            .collect();
+        for (i, b) in s.fluid.iter().enumerate() {
+            let (blo, bhi) = block_bounds(b, s.dim);
+            if let Some(j) = s.wall.iter().position(|w| {
+                w.kind == WallKind::Solid
+                    && (0..s.dim).all(|k| blo[k] >= w.min[k] && bhi[k] <= w.max[k])
+            }) {
+                return self.bad(
+                    format!("fluid[{i}]"),
+                    format!(
+                        "lies wholly inside the solid wall[{j}]: its particles would all be \
+                         carved away"
+                    ),
+                );
+            }
+        }
+        if inside.is_empty() {
+            return Ok(());
+        }
+        for (i, b) in s.fluid.iter().enumerate() {
+            let (blo, bhi) = block_bounds(b, s.dim);
+            let overlaps = inside
+                .iter()
+                .any(|(lo, hi)| (0..s.dim).all(|k| bhi[k] > lo[k] && blo[k] < hi[k]));
+            if !overlaps {
+                return self.bad(
+                    format!("fluid[{i}]"),
+                    format!(
+                        "lies wholly outside every container [[wall]] (its extent {:?} to \
+                         {:?}): it would never meet the walls",
+                        &blo[..s.dim],
+                        &bhi[..s.dim]
+                    ),
+                );
+            }
+        }
+        Ok(())
+    }
+
     fn domain(&self) -> Check {
         let s = self.scene;
         let Some(d) = &s.domain else { return Ok(()) };
@@ -1198,6 +1398,23 @@ impl Validator<'_> {
                         s.support()
                     ),
                 );
+            }
+            for (i, b) in s.fluid.iter().enumerate() {
+                let (blo, bhi) = block_bounds(b, s.dim);
+                if blo[k] < lo[k] - 1e-9 * period || bhi[k] > hi[k] + 1e-9 * period {
+                    return self.bad(
+                        format!("fluid[{i}]"),
+                        format!(
+                            "spans {:.6} to {:.6} along the periodic axis {}, beyond the periodic \
+                             box [{}, {}]: its particles outside the box would be dropped",
+                            blo[k],
+                            bhi[k],
+                            ["x", "y", "z"][k],
+                            lo[k],
+                            hi[k]
+                        ),
+                    );
+                }
             }
             for (i, w) in s.wall.iter().enumerate() {
                 let closed = |upper: bool| {
@@ -1313,6 +1530,33 @@ impl Validator<'_> {
         let s = self.scene;
         let e = s.estimate();
         let l = &s.limits;
+        if s.steps().0 == 0 {
+            return self.bad(
+                "dt",
+                format!(
+                    "= {} is longer than t_end = {}: the run would take no full step",
+                    s.dt, s.t_end
+                ),
+            );
+        }
+        // A spacing so small that the counts overflow (or the estimate's arithmetic gives NaN)
+        // is over every limit: the comparisons below would let NaN through.
+        if ![e.fluid, e.walls, e.probes, e.bytes, e.steps]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return self.bad(
+                "dx",
+                format!(
+                    "= {:e} (with dt = {:e}) is too small to count the particles or steps it \
+                     would create (limits: {} particles, {} steps)",
+                    s.dx,
+                    s.dt,
+                    l.particles(),
+                    l.steps()
+                ),
+            );
+        }
         if e.fluid < MIN_FLUID_ESTIMATE {
             return self.bad(
                 "dx",

@@ -1,6 +1,7 @@
 //! A seeded fuzz of scene parsing and validation: 100 000 inputs made by mutating the scenes in
 //! `cases/` (numbers swapped for extreme values, keys renamed, lines deleted, duplicated,
-//! swapped or spliced from another scene, values of the wrong type, stray bytes) go through
+//! swapped or spliced from another scene, values of the wrong type, stray bytes, blocks moved
+//! into each other or out of their container) go through
 //! everything `dgsph check` does before running — parse, validate (also the quick preset),
 //! budget estimate, step count, simulation settings — and, for small valid scenes, the
 //! particle set itself. None may panic.
@@ -12,7 +13,7 @@ use sph_cases::reference::References;
 use sph_cases::registry;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
-const SCENES: [(&str, &str); 14] = [
+const SCENES: [(&str, &str); 16] = [
     (
         "cavity_cube_3d",
         include_str!("../../../cases/cavity_cube_3d.toml"),
@@ -48,6 +49,14 @@ const SCENES: [(&str, &str); 14] = [
     (
         "drop_on_wall",
         include_str!("../../../cases/hard/drop_on_wall.toml"),
+    ),
+    (
+        "drop_into_pool",
+        include_str!("../../../cases/hard/drop_into_pool.toml"),
+    ),
+    (
+        "dam_break_obstacle",
+        include_str!("../../../cases/hard/dam_break_obstacle.toml"),
     ),
     (
         "elliptical_drop",
@@ -203,7 +212,7 @@ fn mutate(rng: &mut Rng, text: &str, keys: &[String]) -> String {
     let mut s = text.to_string();
     for _ in 0..1 + rng.below(4) {
         let lines: Vec<&str> = s.lines().collect();
-        s = match rng.below(9) {
+        s = match rng.below(10) {
             0 | 1 => {
                 // A number replaced by a nasty value.
                 let ns = numbers(&s);
@@ -280,6 +289,36 @@ fn mutate(rng: &mut Rng, text: &str, keys: &[String]) -> String {
                     .nth(rng.below(s.len() + 1))
                     .unwrap_or(0);
                 format!("{}{}{}", &s[..cut], rng.pick(&STRAY), &s[cut..])
+            }
+            8 => {
+                // A block moved: every number of one `min`, `max` or `center` line shifted by
+                // the same offset, so that it overlaps another block, leaves its container or
+                // its periodic box.
+                let corners: Vec<usize> = (0..lines.len())
+                    .filter(|&i| {
+                        let k = lines[i].trim_start();
+                        k.starts_with("min") || k.starts_with("max") || k.starts_with("center")
+                    })
+                    .collect();
+                if corners.is_empty() {
+                    continue;
+                }
+                let i = corners[rng.below(corners.len())];
+                let offset: f64 =
+                    [-100.0, -3.0, -1.0, -0.5, 0.25, 0.5, 1.0, 3.0, 1e300][rng.below(9)];
+                let line = lines[i];
+                let mut moved = String::new();
+                let mut last = 0;
+                for (a, b) in numbers(line) {
+                    moved.push_str(&line[last..a]);
+                    let v: f64 = line[a..b].parse().unwrap_or(0.0);
+                    moved.push_str(&format!("{:?}", v + offset));
+                    last = b;
+                }
+                moved.push_str(&line[last..]);
+                let mut l: Vec<String> = lines.iter().map(|x| x.to_string()).collect();
+                l[i] = moved;
+                l.join("\n")
             }
             _ => {
                 // The file cut short.

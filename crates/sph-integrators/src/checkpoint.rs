@@ -15,7 +15,8 @@
 //! `t` `f64`, particle count `n` `u64`, metadata length `u64` and its UTF-8 bytes, then positions
 //! and velocities (`3n` `f64` each, `z = 0` in 2D), masses, densities and pressures (`n` each),
 //! the particles' initial indices (`n` `u32`; format version 2 — version 1 images, which have
-//! none, are read with the identity numbering), then the checksum `u64`.
+//! none, are read with the identity numbering), the caller's run state (length `u64` and its
+//! bytes; format version 3 — older images are read with none), then the checksum `u64`.
 
 use crate::simulation::Simulation;
 use sph_core::{CoreError, Dim, ParticleSet, VectorOps};
@@ -44,6 +45,9 @@ pub struct Checkpoint {
     pub ids: Vec<u32>,
     /// The caller's metadata (not interpreted here).
     pub meta: String,
+    /// The caller's run state at this step (what its measurements have accumulated so far), as
+    /// opaque bytes: not interpreted here; empty when there is none.
+    pub state: Vec<u8>,
 }
 
 /// Why a checkpoint cannot be decoded or restored.
@@ -84,7 +88,7 @@ pub enum RestoreError {
 }
 
 const MAGIC: &[u8; 8] = b"DGSPHCKP";
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 
 /// FNV-1a, 64 bit (Fowler–Noll–Vo): every single-byte change changes the hash.
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -150,7 +154,8 @@ impl Checkpoint {
     /// The checkpoint as a self-checking binary image (see the module docs).
     pub fn encode(&self) -> Vec<u8> {
         let n = self.masses.len();
-        let mut out = Vec::with_capacity(64 + self.meta.len() + n * (9 * 8 + 4) + 8);
+        let mut out =
+            Vec::with_capacity(72 + self.meta.len() + self.state.len() + n * (9 * 8 + 4) + 8);
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&VERSION.to_le_bytes());
         out.extend_from_slice(&(self.dim as u32).to_le_bytes());
@@ -174,6 +179,8 @@ impl Checkpoint {
         for id in &self.ids {
             out.extend_from_slice(&id.to_le_bytes());
         }
+        out.extend_from_slice(&(self.state.len() as u64).to_le_bytes());
+        out.extend_from_slice(&self.state);
         let sum = fnv1a(&out);
         out.extend_from_slice(&sum.to_le_bytes());
         out
@@ -196,7 +203,7 @@ impl Checkpoint {
             at: MAGIC.len(),
         };
         let version = r.u32("version")?;
-        if version != VERSION && version != 1 {
+        if !(1..=VERSION).contains(&version) {
             return Err(RestoreError::Format(format!(
                 "format version {version}, this build reads 1 to {VERSION}"
             )));
@@ -237,6 +244,13 @@ impl Checkpoint {
         } else {
             r.u32s(n, "particle ids")?
         };
+        let state = if version >= 3 {
+            let len = usize::try_from(r.u64("run state length")?)
+                .map_err(|_| RestoreError::Format("run state length does not fit".into()))?;
+            r.take(len, "run state")?.to_vec()
+        } else {
+            Vec::new()
+        };
         if r.at != body.len() {
             return Err(RestoreError::Format(format!(
                 "{} bytes after the particle data",
@@ -254,6 +268,7 @@ impl Checkpoint {
             pressures,
             ids,
             meta,
+            state,
         };
         c.validate()?;
         Ok(c)
@@ -332,6 +347,7 @@ impl<D: Dim> Simulation<D> {
             pressures: p.pressures.clone(),
             ids: self.order.ids.clone(),
             meta: meta.to_string(),
+            state: Vec::new(),
         }
     }
 
@@ -402,6 +418,7 @@ mod tests {
             pressures: vec![-3.3e3, 7.0 / 9.0],
             ids: vec![1, 0],
             meta: "{\"scene\": \"é\"}".into(),
+            state: vec![0, 255, 7, 1],
         }
     }
 
@@ -417,27 +434,47 @@ mod tests {
         assert_eq!(back.t.to_bits(), c.t.to_bits());
     }
 
-    /// A version-1 image (written before particles were renumbered: no ids) is read with the
+    /// `body` (an image without its checksum) announced as format `version`, the checksum
+    /// appended.
+    fn as_version(body: &[u8], version: u32) -> Vec<u8> {
+        let mut b = body.to_vec();
+        b[8..12].copy_from_slice(&version.to_le_bytes());
+        let sum = fnv1a(&b);
+        b.extend_from_slice(&sum.to_le_bytes());
+        b
+    }
+
+    /// An image without its checksum.
+    fn body(image: &[u8]) -> &[u8] {
+        &image[..image.len() - 8]
+    }
+
+    /// A version-2 image (written before runs saved their state) is read with no run state; a
+    /// version-1 image (written before particles were renumbered: no ids) also with the
     /// identity numbering.
     #[test]
-    fn version_1_images_read_with_the_identity_numbering() {
+    fn older_images_read_with_no_run_state_and_the_identity_numbering() {
         let mut c = sample();
-        let v2 = c.encode();
+        let v3 = c.encode();
         let n = c.masses.len();
-        let mut v1 = v2[..v2.len() - 8 - 4 * n].to_vec();
-        v1[8..12].copy_from_slice(&1u32.to_le_bytes());
-        let sum = fnv1a(&v1);
-        v1.extend_from_slice(&sum.to_le_bytes());
+        let state = 8 + c.state.len();
+        let v2 = as_version(&body(&v3)[..body(&v3).len() - state], 2);
+        c.state.clear();
+        assert_eq!(Checkpoint::decode(&v2).unwrap(), c);
+        let v1 = as_version(&body(&v2)[..body(&v2).len() - 4 * n], 1);
         let back = Checkpoint::decode(&v1).unwrap();
         c.ids = vec![0, 1];
         assert_eq!(back, c);
-        // The same bytes announced as version 2 lack the ids.
-        let mut bad = v1[..v1.len() - 8].to_vec();
-        bad[8..12].copy_from_slice(&2u32.to_le_bytes());
-        let sum = fnv1a(&bad);
-        bad.extend_from_slice(&sum.to_le_bytes());
-        let e = Checkpoint::decode(&bad).unwrap_err().to_string();
+        // The same bytes announced as version 2 lack the ids; version-2 bytes announced as
+        // version 3 lack the run state.
+        let e = Checkpoint::decode(&as_version(body(&v1), 2))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("particle ids"), "{e}");
+        let e = Checkpoint::decode(&as_version(body(&v2), 3))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("run state"), "{e}");
     }
 
     #[test]

@@ -55,7 +55,8 @@ pub enum StepError {
     /// by Morris, Fox & Zhu 1997) as `dx` shrinks. The Re 100 cavity runs at 0.15 (100²) and
     /// 0.30 (500², `Δt = 1e-4`), and blew up in its second step at 0.74 (500², `Δt = dx/4`).
     #[error(
-        "step {step} (t = {t:.6e}): blow-up: particle {particle} would move {value:.3e} smoothing lengths in one step (limit {limit:e}); the time step is too large for this flow (its viscous number ν Δt / h² is {viscous_number:.3}; Morris et al. 1997 advise at most 0.125 for the explicit viscous term), or the flow is unstable"
+        "step {step} (t = {t:.6e}): blow-up: particle {particle} would move {value:.3e} smoothing lengths in one step (limit {limit:e}); the time step is too large for this flow ({}), or the flow is unstable",
+        blow_up_numbers(*advective_number, *viscous_number)
     )]
     BlowUp {
         /// Step number.
@@ -70,6 +71,8 @@ pub enum StepError {
         limit: f64,
         /// The step's viscous number `ν Δt / h²` (0 without viscosity).
         viscous_number: f64,
+        /// The step's advective number `max |u| Δt / h` at its start.
+        advective_number: f64,
     },
     /// A fluid particle would end deeper in wall material than the walls are thick: it has passed
     /// through a wall. The particles are left as they were before the step.
@@ -114,4 +117,20 @@ impl StepError {
         }
         self
     }
+}
+
+/// The blow-up message's numbers: the advective number `max |u| Δt / h` always, the viscous
+/// number `ν Δt / h²` only for a viscous flow.
+fn blow_up_numbers(advective: f64, viscous: f64) -> String {
+    let mut s = format!(
+        "at the step's start its advective number max |u| Δt / h was {advective:.3}; about 0.25 \
+         or less is usual"
+    );
+    if viscous > 0.0 {
+        s.push_str(&format!(
+            "; its viscous number ν Δt / h² is {viscous:.3}; Morris et al. 1997 advise at most \
+             0.125 for the explicit viscous term"
+        ));
+    }
+    s
 }

@@ -339,6 +339,14 @@ fn projection_passes<D: Dim>(
             }
             // Walls do not move (a lid's velocity is tangential and prescribed).
             sim.buf.x_pred[nf..].copy_from_slice(&p.positions[nf..]);
+            // A predictor that already moves a particle past the limit is a blow-up (its
+            // lists and matrix would be built on positions that no longer form a fluid).
+            let (far, max2) =
+                first_largest(p.velocities[..nf].par_iter().map(|u| u.length_squared()));
+            let value = max2.sqrt() * dt / sim.engine.config.h;
+            if value.is_nan() || value > sim.engine.config.limits.max_displacement {
+                return Err(blow_up(&sim.engine, p, far, value, dt, step, t));
+            }
             &sim.buf.x_pred
         }
     };
@@ -480,6 +488,39 @@ fn projection_passes<D: Dim>(
     Ok(report)
 }
 
+/// The blow-up error of a step in which fluid particle `particle` would move `value`
+/// smoothing lengths.
+fn blow_up<D: Dim>(
+    e: &Engine<D>,
+    p: &ParticleSet<D>,
+    particle: usize,
+    value: f64,
+    dt: f64,
+    step: usize,
+    t: f64,
+) -> StepError {
+    let h = e.config.h;
+    StepError::BlowUp {
+        step,
+        t,
+        particle,
+        value,
+        limit: e.config.limits.max_displacement,
+        viscous_number: e
+            .config
+            .effects
+            .viscosity
+            .map_or(0.0, |v| v.nu * dt / (h * h)),
+        advective_number: p.velocities[..e.fluid]
+            .par_iter()
+            .map(|u| u.length_squared())
+            .reduce(|| 0.0, f64::max)
+            .sqrt()
+            * dt
+            / h,
+    }
+}
+
 /// The blow-up checks of a step, before anything is committed: no fluid particle may move more
 /// than [`Limits::max_displacement`](crate::Limits) smoothing lengths, nor end deeper in wall
 /// material than the walls are thick. Returns the largest displacement in smoothing lengths and
@@ -498,18 +539,7 @@ fn check_displacements<D: Dim>(
     let value = max2.sqrt() / h;
     let limit = e.config.limits.max_displacement;
     if value.is_nan() || value > limit {
-        return Err(StepError::BlowUp {
-            step,
-            t,
-            particle: far,
-            value,
-            limit,
-            viscous_number: e
-                .config
-                .effects
-                .viscosity
-                .map_or(0.0, |v| v.nu * dt / (h * h)),
-        });
+        return Err(blow_up(e, p, far, value, dt, step, t));
     }
     let mut deepest_depth = 0.0;
     if let Some(w) = &e.walls {

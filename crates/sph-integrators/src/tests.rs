@@ -106,6 +106,17 @@ sph_core::dim_tests! {
             let before = sim.particles.clone();
             // The rim moves at |u| = 30: in dt = 0.01 that is 0.3 / h = 4.6 smoothing lengths.
             let err = Scheme::new(kind).step(&mut sim, 0.01).unwrap_err();
+            // The message names the advective number of the step (the rim's 30 · 0.01 / h), and
+            // no viscous number in this inviscid flow.
+            let text = err.to_string();
+            let u_max = before
+                .velocities
+                .iter()
+                .map(|u| u.length())
+                .fold(0.0, f64::max);
+            let expected = format!("max |u| Δt / h was {:.3}", u_max * 0.01 / h);
+            assert!(text.contains(&expected), "{text}");
+            assert!(!text.contains("viscous"), "{text}");
             match err {
                 StepError::BlowUp { step: 0, particle, value, limit, .. } => {
                     assert!(value > 3.0 && limit == 1.0, "{kind:?}: {value}");
@@ -415,6 +426,7 @@ fn step_errors_name_initial_indices() {
         value: 3.0,
         limit: 1.0,
         viscous_number: 0.0,
+        advective_number: 0.1,
     };
     match e.with_particle_ids(&[5, 7, 6]) {
         StepError::BlowUp { particle, .. } => assert_eq!(particle, 7),

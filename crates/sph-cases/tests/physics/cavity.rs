@@ -156,11 +156,17 @@ fn resumed_run_continues_bit_for_bit<D: Dim>() {
         resume,
         checkpoint_every: Some(4),
         checkpoint_meta: "test".into(),
+        stop: None,
     };
-    let (_, straight) = run_with(&s, s.schemes[0], control(None));
+    let (straight_run, straight) = run_with(&s, s.schemes[0], control(None));
     let saved = &straight.checkpoints;
     assert_eq!(saved.iter().map(|c| c.step).collect::<Vec<_>>(), [4, 8]);
-    let (_, resumed) = run_with(&s, s.schemes[0], control(Some(&saved[0])));
+    let (resumed_run, resumed) = run_with(&s, s.schemes[0], control(Some(&saved[0])));
+    // The resumed run's results cover the whole run (the checkpoint carries what the first
+    // segment measured): equal to the uninterrupted run's, timings aside.
+    let untimed = crate::support::untimed_results;
+    assert_eq!(untimed(&resumed_run), untimed(&straight_run));
+    assert_eq!((resumed_run.steps_taken, resumed_run.segment_steps), (8, 4));
     assert_eq!(resumed.checkpoints.len(), 1);
     assert_eq!(resumed.checkpoints[0], saved[1], "resumed state differs");
     assert!(saved[1].positions != saved[0].positions, "the run moved");

@@ -22,3 +22,12 @@ pub fn run_with(
         .unwrap_or_else(|e| panic!("{}: {e}", scheme.name()));
     (run, sink)
 }
+
+/// A run's results as bit patterns, without the wall-clock ones (`*seconds*`).
+pub fn untimed_results(r: &SchemeRun) -> Vec<(String, u64)> {
+    r.results
+        .iter()
+        .filter(|(k, _)| !k.contains("seconds"))
+        .map(|(k, v)| (k.clone(), v.to_bits()))
+        .collect()
+}
