@@ -122,14 +122,24 @@ impl StepError {
 /// The blow-up message's numbers: the advective number `max |u| Δt / h` always, the viscous
 /// number `ν Δt / h²` only for a viscous flow.
 fn blow_up_numbers(advective: f64, viscous: f64) -> String {
+    // Three decimals, or two significant digits for what would print as 0.000.
+    let num = |v: f64| {
+        if v == 0.0 || v >= 1e-3 {
+            format!("{v:.3}")
+        } else {
+            format!("{v:.1e}")
+        }
+    };
     let mut s = format!(
-        "at the step's start its advective number max |u| Δt / h was {advective:.3}; about 0.25 \
-         or less is usual"
+        "at the step's start its advective number max |u| Δt / h was {}; about 0.25 or less is \
+         usual",
+        num(advective)
     );
     if viscous > 0.0 {
         s.push_str(&format!(
-            "; its viscous number ν Δt / h² is {viscous:.3}; Morris et al. 1997 advise at most \
-             0.125 for the explicit viscous term"
+            "; its viscous number ν Δt / h² is {}; Morris et al. 1997 advise at most 0.125 for \
+             the explicit viscous term",
+            num(viscous)
         ));
     }
     s
