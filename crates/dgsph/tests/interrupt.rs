@@ -2,8 +2,10 @@
 //! after a step with a checkpoint and an `interrupted` record (exit 130); SIGKILL during the
 //! second scheme; `--resume` then finishes exactly what was unfinished, leaves finished schemes'
 //! files untouched, and every `run.json` equals the uninterrupted run's (timings aside); a
-//! second `--resume` does nothing and says so. SIGTERM stops a run the same way (exit 143).
-//! Also: a second run into a directory in use is refused, a closed stdout does not stop a run, and an impossible thread count is bad input.
+//! second `--resume` does nothing and says so. SIGTERM stops a run the same way (exit 143); a
+//! second signal ends it at once. Also: a second run into a directory in use is refused, a
+//! closed stdout does not stop a run, a file-size limit is an output error, and an impossible
+//! thread count is bad input.
 
 mod common;
 use common::*;
@@ -300,6 +302,46 @@ fn a_file_size_limit_is_an_output_error() {
         text(&o).contains("writing results") && text(&o).contains(&*out.to_string_lossy()),
         "{}",
         text(&o)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A second SIGINT ends the process at once (exit 130), without waiting for the step in
+/// progress: a 250 000-particle cavity whose steps take seconds, both signals sent just after a
+/// step's record appeared. The graceful stop would have written `run.json` after the step.
+#[test]
+fn a_second_signal_exits_at_once() {
+    let dir = scratch("twice");
+    let text = cavity(1.0)
+        .replace("dx = 0.1", "dx = 0.002")
+        .replace("dt = 0.01", "dt = 1e-4")
+        .replace(
+            "schemes = [\"euler\", \"predictor_corrector\", \"dg\"]",
+            "schemes = [\"euler\"]",
+        )
+        .replace("snapshots = [0.05]", "snapshots = [0.05]\nsample_every = 1");
+    let s = scene(&dir, "big", &text);
+    let out = dir.join("o");
+    let mut child = spawn(&["run", s.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    // Header, the initial record and step 1's: step 2 has just begun.
+    wait_for(&mut child, "step 1's record", || {
+        rows(&out.join("big_euler.csv")) >= 3
+    });
+    signal(&child, "-INT");
+    std::thread::sleep(Duration::from_millis(10));
+    let t0 = Instant::now();
+    signal(&child, "-INT");
+    let o = child.wait_with_output().unwrap();
+    let waited = t0.elapsed().as_secs_f64();
+    assert_eq!(
+        o.status.code(),
+        Some(130),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        !out.join("big_euler.run.json").exists(),
+        "the step finished and the run stopped gracefully ({waited:.2} s after the second signal)"
     );
     std::fs::remove_dir_all(&dir).ok();
 }
