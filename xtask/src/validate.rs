@@ -74,6 +74,7 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
     let mut runs = Vec::new();
     let mut bad_input = false;
     let mut failed_runs = 0;
+    let mut interrupted = None;
     if args.suite == Suite::Default
         && (wants("kernels") || wants("operators") || wants("foundation"))
     {
@@ -156,10 +157,17 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
                     0.0,
                 ));
             }
+            // A signal: the scenes finished so far go into the summary, then the command
+            // exits with the signal's code (the interrupted scene's checkpoint and run.json are
+            // written; `--resume` continues it).
+            Err(e @ AppError::Interrupted { .. }) => {
+                interrupted = Some(e);
+                break;
+            }
             Err(e) => return Err(e),
         }
     }
-    if checks.is_empty() {
+    if checks.is_empty() && interrupted.is_none() {
         return Err(AppError::Input(anyhow::anyhow!(
             "no validation case matches {:?} in {}",
             args.case,
@@ -181,7 +189,7 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
             .map_or("compiled-in cases/reference".to_string(), |d| {
                 d.display().to_string()
             }),
-        passed: passed && failed_runs == 0 && !bad_input,
+        passed: passed && failed_runs == 0 && !bad_input && interrupted.is_none(),
         wall_s,
         checks: checks
             .iter()
@@ -212,6 +220,9 @@ pub fn run(args: &ValidateArgs) -> Result<u8, AppError> {
     dgsph::say!("summary: {} (read back: identical)", path.display());
     let report = dgsph::report::write(&args.out).map_err(AppError::Output)?;
     dgsph::say!("report: {}", report.display());
+    if let Some(e) = interrupted {
+        return Err(e);
+    }
     Ok(if bad_input {
         exit::BAD_INPUT
     } else if failed_runs > 0 {

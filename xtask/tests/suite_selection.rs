@@ -73,3 +73,61 @@ fn a_scene_directory_without_scenes_is_bad_input() {
     assert!(text.contains("holds no scene"), "{text}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// SIGINT during the second of two scenes: exit 130, the first scene's checks are in
+/// summary.json (which says the validation did not pass), the interrupted run's record says
+/// `interrupted`.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_validation_keeps_the_finished_scenes_summary() {
+    let dir = scratch("suite-sigint");
+    std::fs::write(dir.join("a_ellipse.toml"), ELLIPSE).unwrap();
+    // A 20² cavity of 30 000 steps: long enough to be interrupted.
+    let cavity = "case = \"lid_driven_cavity\"\ndim = 2\ndx = 0.05\nkernel = \"wendland_c2\"\ndt = 0.001\nt_end = 30.0\nschemes = [\"euler\"]\n[cavity]\nreynolds = 100\ncheck_ghia = false\n[effects]\nshifting = { coefficient = 2.0 }\n";
+    std::fs::write(dir.join("b_cavity.toml"), cavity).unwrap();
+    let out = dir.join("out");
+    let mut child = xtask_command()
+        .args(["validate", "--cases"])
+        .arg(&dir)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !out.join("b_cavity_euler.csv").exists() {
+        assert!(
+            t0.elapsed().as_secs() < 120,
+            "the second scene never started"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "validation ended early"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    let killed = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["passed"], false);
+    let checks = summary["checks"].as_array().unwrap();
+    assert!(
+        checks
+            .iter()
+            .any(|c| c["case"].as_str().unwrap().contains("a_ellipse")),
+        "{summary}"
+    );
+    let record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("b_cavity_euler.run.json")).unwrap())
+            .unwrap();
+    assert_eq!(record["status"], "interrupted");
+    std::fs::remove_dir_all(&dir).ok();
+}
