@@ -110,6 +110,18 @@ pub struct SceneOutcome {
     pub wall_s: f64,
 }
 
+impl SceneOutcome {
+    /// Counts a run that stopped at a failed step, and whether the scene declared that.
+    fn count_failed(&mut self, scene: &Scene, scheme: SchemeKind, run: &str) {
+        self.failed_runs += 1;
+        self.unexpected_failed_runs += usize::from(
+            sph_cases::run::run_completes_check(scene, scheme, run, "")
+                .known_failure
+                .is_none(),
+        );
+    }
+}
+
 /// What a checkpoint records about the run it belongs to.
 #[derive(Debug, Serialize, Deserialize)]
 pub struct CheckpointMeta {
@@ -403,12 +415,7 @@ pub fn run_scene(
                 let failure = record.status.strip_prefix("failed: ");
                 let checks = registry::run_checks(&scene, scheme, refs, &values, record.t, failure);
                 if failure.is_some() {
-                    outcome.failed_runs += 1;
-                    outcome.unexpected_failed_runs += usize::from(
-                        sph_cases::run::run_completes_check(&scene, scheme, &run, "")
-                            .known_failure
-                            .is_none(),
-                    );
+                    outcome.count_failed(&scene, scheme, &run);
                 }
                 outcome.checks.extend(checks.into_iter().map(|mut c| {
                     c.case = format!("{}/{}", c.case, opts.name);
@@ -513,12 +520,7 @@ pub fn run_scene(
         };
         finished.map_err(AppError::Output)?;
         if let Some(e) = &r.failure {
-            outcome.failed_runs += 1;
-            outcome.unexpected_failed_runs += usize::from(
-                sph_cases::run::run_completes_check(&scene, scheme, &run, "")
-                    .known_failure
-                    .is_none(),
-            );
+            outcome.count_failed(&scene, scheme, &run);
             crate::warn!(
                 "  {run}: FAILED: {e} (rows so far in {})",
                 files.csv_path().display()

@@ -128,13 +128,7 @@ impl CsrSystem<'_> {
     /// a nearly hydrostatic state, whose right-hand side is a small remainder of large
     /// pressures, stagnates at a relative residual of 1e-8–1e-7 at a backward error near 1e-16.
     pub fn backward_error(&self, x: &[f64], scratch: &mut [f64]) -> f64 {
-        self.matvec(x, scratch);
-        let r: f64 = scratch
-            .iter()
-            .zip(self.rhs)
-            .map(|(ax, b)| (b - ax) * (b - ax))
-            .sum();
-        let b: f64 = self.rhs.iter().map(|b| b * b).sum();
+        let (r, b) = self.residual_squares(x, scratch);
         let xx: f64 = x.iter().map(|v| v * v).sum();
         let (lo, hi) = (self.offsets[0], self.offsets[self.body_rows()]);
         let mut a: f64 = self.values[lo..hi].iter().map(|v| v * v).sum();
@@ -164,15 +158,20 @@ impl CsrSystem<'_> {
         rel_residual <= 10.0 * tolerance || self.backward_error(x, scratch) <= tolerance
     }
 
-    /// True relative residual of `x`.
-    pub fn rel_residual(&self, x: &[f64], scratch: &mut [f64]) -> f64 {
+    /// `(‖b − A x‖², ‖b‖²)`, `A x` computed into `scratch`.
+    fn residual_squares(&self, x: &[f64], scratch: &mut [f64]) -> (f64, f64) {
         self.matvec(x, scratch);
         let r: f64 = scratch
             .iter()
             .zip(self.rhs)
             .map(|(ax, b)| (b - ax) * (b - ax))
             .sum();
-        let b: f64 = self.rhs.iter().map(|b| b * b).sum();
+        (r, self.rhs.iter().map(|b| b * b).sum())
+    }
+
+    /// True relative residual of `x`.
+    pub fn rel_residual(&self, x: &[f64], scratch: &mut [f64]) -> f64 {
+        let (r, b) = self.residual_squares(x, scratch);
         if b == 0.0 { r.sqrt() } else { (r / b).sqrt() }
     }
 }
