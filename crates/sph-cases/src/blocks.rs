@@ -222,10 +222,15 @@ pub struct OutputSpec {
 #[serde(deny_unknown_fields)]
 pub struct StartSpec {
     /// Settle the initial state with this many steps of the scheme before `t = 0`, each ending
-    /// with the fluid's velocities set to zero (dynamic relaxation): a disordered or rough start
-    /// (`jitter`) relaxes to mechanical equilibrium, and the run starts from rest in it with the
-    /// settled pressure. Nothing is recorded while settling. Default 0 (none).
+    /// with the fluid's velocities set to zero (dynamic relaxation), and start from rest in the
+    /// settled positions with the settled pressure. A step moves a particle by `Δt²` times its
+    /// acceleration, so settling does not undo a jitter (`relax_iterations` does). Nothing is
+    /// recorded while settling. Default 0 (none).
     pub settle_steps: Option<usize>,
+    /// Pack the fluid particles with this many fixed-coefficient shifting iterations before
+    /// anything else (positions only; `sph_integrators::Simulation::relax`): a disordered start
+    /// (`jitter`) loses the disorder that makes the approximate projection amplify. Default 0.
+    pub relax_iterations: Option<usize>,
 }
 
 /// `[limits]`: what a scene may allocate and how a blow-up is recognised.

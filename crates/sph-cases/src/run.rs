@@ -361,7 +361,8 @@ fn run_state(tally: &Tally, case_state: Vec<u8>) -> Vec<u8> {
     w.finish()
 }
 
-/// The scene's `[start] settle_steps`: that many steps of the scheme at the scene's `dt`, each
+/// The scene's `[start] relax_iterations` (packing, [`Simulation::relax`]), then its
+/// `[start] settle_steps`: that many steps of the scheme at the scene's `dt`, each
 /// followed by setting the fluid's velocities to zero, then the clock reset to `t = 0`, step 0.
 /// The particles keep their settled positions and pressures. A failed settling step is an
 /// error of the run's setup (`CaseError::Settle`).
@@ -371,6 +372,11 @@ fn settle<D: Dim>(
     sim: &mut Simulation<D>,
     integrator: &mut Scheme,
 ) -> Result<(), CaseError> {
+    let relax = scene.start.relax_iterations.unwrap_or(0);
+    if relax > 0 {
+        sim.relax(relax, scene.dx)
+            .map_err(|e| CaseError::Settle(e.to_string()))?;
+    }
     let steps = scene.start.settle_steps.unwrap_or(0);
     if steps == 0 {
         return Ok(());

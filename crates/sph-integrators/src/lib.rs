@@ -21,6 +21,7 @@ mod config;
 mod error;
 mod frame;
 mod projection;
+mod relax;
 mod report;
 mod schemes;
 mod simulation;
@@ -37,6 +38,7 @@ pub use config::{
 };
 pub use error::StepError;
 pub use frame::Frame;
+pub use relax::{RELAX_COEFFICIENT, RelaxReport};
 pub use report::{DetFStats, EnergyBudget, Phase, PhaseTimes, StepReport};
 pub use schemes::{DgIsph, EulerIsph, Integrator, PredictorCorrectorIsph, Scheme, SchemeKind};
 pub use simulation::Simulation;
