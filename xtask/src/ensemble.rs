@@ -128,6 +128,8 @@ pub fn run(args: &EnsembleArgs) -> Result<u8, AppError> {
     for k in 0..args.draws as usize {
         let mut s = scene.clone();
         s.dt = draw_dt(scene.dt, k, eps);
+        // The drawn step is taken every step (an automatic step would only be bounded by it).
+        s.time_step.auto = Some(false);
         for &scheme in &scene.schemes {
             let mut sink = MemorySink::default();
             let r = registry::run_scheme(&s, scheme, refs, RunControl::default(), &mut sink)

@@ -10,7 +10,8 @@ use crate::case::{Case, Column, Results, Table};
 use crate::{CaseError, Check, Scene};
 use sph_core::{Dim, VectorOps};
 use sph_integrators::{
-    Checkpoint, Frame, Phase, PhaseTimes, Scheme, SchemeKind, Simulation, StepError, StepReport,
+    COLLAPSE_FRACTION, Checkpoint, DtBound, Frame, Phase, PhaseTimes, Scheme, SchemeKind,
+    Simulation, StepError, StepReport,
 };
 use sph_kernels::Kernel;
 use std::time::Instant;
@@ -84,6 +85,12 @@ pub fn common_columns() -> Vec<Column> {
         Column::new("step", "", "steps completed"),
         Column::new("t", "time", "simulated time"),
         Column::new("dt", "time", "size of the last step"),
+        Column::new(
+            "dt_bound",
+            "",
+            "the limit that set the last step with the automatic step: 0 the scene's dt, 1 \
+             advective, 2 viscous, 3 body force (empty with a fixed step)",
+        ),
         Column::new("kinetic_energy", "energy", "½ Σ m u² over the fluid"),
         Column::new("max_speed", "velocity", "largest fluid speed"),
         Column::new("wall_penetrations", "", "fluid particles in wall material"),
@@ -280,6 +287,7 @@ fn default_velocity_scale<D: Dim>(scene: &Scene, sim: &Simulation<D>) -> f64 {
 fn common_values<D: Dim>(
     sim: &Simulation<D>,
     report: Option<&StepReport>,
+    dt_bound: Option<DtBound>,
     lattice: f64,
     out: &mut Vec<f64>,
 ) {
@@ -302,6 +310,7 @@ fn common_values<D: Dim>(
         sim.step as f64,
         sim.t,
         r(&|r| r.dt),
+        report.and(dt_bound).map_or(nan, DtBound::code),
         ke,
         vmax,
         sim.wall_penetrations() as f64,
@@ -347,6 +356,11 @@ struct Tally {
     /// number of records (the frame cadence counts them).
     density_max: f64,
     records: usize,
+    /// The smallest and largest step taken (0 before the first).
+    #[serde(default)]
+    dt_min: f64,
+    #[serde(default)]
+    dt_max: f64,
     #[serde(skip)]
     phases: PhaseTimes,
 }
@@ -435,6 +449,8 @@ pub fn run_scheme<D: Dim>(
     sink.begin(&columns)?;
     let mut values = Vec::with_capacity(columns.len());
     let records = std::cell::Cell::new(0usize);
+    // The limit that set the step being recorded (automatic steps).
+    let bound_now = std::cell::Cell::new(None);
     let mass = sim.particles.masses.first().copied().unwrap_or(0.0);
     let lattice = lattice_density(&sim, scene.dx, mass);
     let velocity_scale = case
@@ -452,7 +468,7 @@ pub fn run_scheme<D: Dim>(
                     sink: &mut dyn RunSink|
      -> Result<(), CaseError> {
         values.clear();
-        common_values(sim, report, lattice, &mut values);
+        common_values(sim, report, bound_now.get(), lattice, &mut values);
         density_max.set(density_max.get().max(values[density_col]));
         case.observe(sim, report, short, &mut values)?;
         debug_assert_eq!(values.len(), columns.len());
@@ -461,6 +477,17 @@ pub fn run_scheme<D: Dim>(
         Ok(())
     };
     let mut integrator = Scheme::new(scheme);
+    // The automatic time step reads the largest fluid speed, ν and |g| each step.
+    let auto = scene.auto_time_step();
+    let (nu, gravity) = {
+        let fx = &sim.config().effects;
+        let g = fx.gravity.map_or(0.0, |g| {
+            let g = &g[..D::DIM];
+            g.iter().map(|c| c * c).sum::<f64>().sqrt()
+        });
+        (fx.viscosity.map_or(0.0, |v| v.nu), g)
+    };
+    let h = sim.config().h;
     if control.resume.is_none() {
         settle(scene, &mut case, &mut sim, &mut integrator)?;
     }
@@ -477,7 +504,12 @@ pub fn run_scheme<D: Dim>(
             density_max.set(tally.density_max);
         }
         let expected = sim.step as f64 * scene.dt;
-        if sim.step > last || (sim.t - expected).abs() > 1e-9 * expected.max(scene.dt) {
+        let fits = match auto {
+            // Automatic steps: any step count, but not past the end.
+            Some(_) => sim.t <= scene.t_end + 1e-9 * scene.dt,
+            None => sim.step <= last && (sim.t - expected).abs() <= 1e-9 * expected.max(scene.dt),
+        };
+        if !fits {
             return Err(CaseError::Resume(format!(
                 "the checkpoint is at step {} and t = {}, which does not fit this scene (dt = {}, \
                  {last} steps)",
@@ -501,28 +533,81 @@ pub fn run_scheme<D: Dim>(
     let mut failure = None;
     let mut segment_steps = 0usize;
     let mut interrupted = false;
-    for k in sim.step + 1..=last {
-        let short = k == last && rest.is_some();
-        let dt = if short {
-            rest.expect("short step")
-        } else {
-            scene.dt
+    let mut bound = None;
+    let mut k = sim.step;
+    loop {
+        k += 1;
+        let (dt, short, is_last) = match auto {
+            None => {
+                if k > last {
+                    break;
+                }
+                let short = k == last && rest.is_some();
+                let dt = if short {
+                    rest.expect("short step")
+                } else {
+                    scene.dt
+                };
+                (dt, short, k == last)
+            }
+            Some(a) => {
+                let remaining = scene.t_end - sim.t;
+                if remaining <= 1e-9 * scene.dt {
+                    break;
+                }
+                let u_max = sim.particles.velocities[..sim.fluid_len()]
+                    .iter()
+                    .map(|u| u.length())
+                    .fold(0.0, f64::max);
+                let (dt, b) = a.choose(scene.dt, h, u_max, nu, gravity);
+                bound = Some(b);
+                bound_now.set(bound);
+                if dt < COLLAPSE_FRACTION * tally.dt_max {
+                    failure = Some(StepError::TimeStepCollapse {
+                        step: sim.step,
+                        t: sim.t,
+                        dt,
+                        largest: tally.dt_max,
+                        speed: u_max,
+                        bound: b,
+                    });
+                    break;
+                }
+                if remaining <= dt * (1.0 + 1e-6) {
+                    (remaining, remaining < dt, true)
+                } else if remaining < 2.0 * dt {
+                    // Two equal steps to the end rather than a full one and a sliver (a
+                    // projection's pressure scales as 1/Δt).
+                    (0.5 * remaining, false, false)
+                } else {
+                    (dt, false, false)
+                }
+            }
         };
         let report = match case.advance(&mut sim, &mut integrator, dt) {
             Ok(r) => r,
-            Err(e) => {
+            Err(mut e) => {
+                if let StepError::BlowUp { dt_bound, .. } = &mut e {
+                    *dt_bound = bound;
+                }
                 failure = Some(e);
                 break;
             }
         };
         tally.steps += 1;
         segment_steps += 1;
+        tally.dt_min = if tally.dt_min > 0.0 {
+            tally.dt_min.min(dt)
+        } else {
+            dt
+        };
+        tally.dt_max = tally.dt_max.max(dt);
         tally.displacement = tally.displacement.max(report.max_displacement);
         tally.guarded += report.wall_guarded;
         tally.iterations += report.solve.iterations as f64;
         tally.phases.accumulate(&report.phases);
         let snap = pending.peek().is_some_and(|t| *t <= due(sim.t));
-        if k % every == 0 || k == last || snap || report.wall_penetrations > 0 {
+        if k % every == 0 || is_last || snap || report.wall_penetrations > 0 {
             emit(&mut case, &sim, Some(&report), short, sink)?;
             tally.penetrations = tally.penetrations.max(sim.wall_penetrations());
             tally.intrusion = tally.intrusion.max(sim.wall_intrusion());
@@ -534,14 +619,14 @@ pub fn run_scheme<D: Dim>(
                 }
             }
         }
-        let stop = k < last
+        let stop = !is_last
             && control
                 .stop
                 .is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed));
         if stop
             || control
                 .checkpoint_every
-                .is_some_and(|n| k % n.max(1) == 0 || k == last)
+                .is_some_and(|n| k % n.max(1) == 0 || is_last)
         {
             tally.records = records.get();
             tally.density_max = density_max.get();
@@ -587,6 +672,8 @@ pub fn run_scheme<D: Dim>(
             tally.iterations / tally.steps.max(1) as f64,
         ),
         ("wall_seconds", clock.elapsed().as_secs_f64()),
+        ("dt_min", tally.dt_min),
+        ("dt_max", tally.dt_max),
         (
             "completed",
             if failure.is_none() && !interrupted {

@@ -33,8 +33,8 @@ use crate::blocks::{
 };
 use serde::{Deserialize, Serialize};
 use sph_integrators::{
-    Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, SchemeKind, ShiftScale, ShiftVelocity,
-    Shifting, SimConfig, Viscosity, WallCondition,
+    AutoTimeStep, Diagnostics, DtBound, Effects, FreeSurface, Limits, PeriodicAxes, SchemeKind,
+    ShiftScale, ShiftVelocity, Shifting, SimConfig, Viscosity, WallCondition,
 };
 use sph_kernels::KernelKind;
 use sph_operators::HessianForm;
@@ -194,6 +194,22 @@ impl From<DgHessianChoice> for HessianForm {
     }
 }
 
+/// `[time_step]`: the automatic time step ([`AutoTimeStep`]): each step's `Δt` is the largest
+/// the advective, viscous and body-force limits allow, at most the scene's `dt`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeStepSpec {
+    /// Choose `Δt` each step. Default: on for `flow` and `dam_break`, off for the paper's cases
+    /// (which keep their fixed `dt`).
+    pub auto: Option<bool>,
+    /// `C_u` of `Δt ≤ C_u h / max|u|`, in (0, 1]. Default 0.2.
+    pub advective: Option<f64>,
+    /// `C_ν` of `Δt ≤ C_ν h² / ν`, in (0, 1]. Default 0.125.
+    pub viscous: Option<f64>,
+    /// `C_f` of `Δt ≤ C_f √(h / |g|)`, in (0, 1]. Default 0.25.
+    pub force: Option<f64>,
+}
+
 /// Overrides applied by the quick validation preset.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -279,6 +295,9 @@ pub struct Scene {
     /// How the initial state is prepared (settling).
     #[serde(default)]
     pub start: StartSpec,
+    /// The automatic time step (`dt` its upper bound).
+    #[serde(default)]
+    pub time_step: TimeStepSpec,
     /// Pass criteria on the run's results, declared before the run.
     #[serde(default)]
     pub check: Vec<CheckSpec>,
@@ -372,6 +391,7 @@ impl Scene {
             output: OutputSpec::default(),
             limits: LimitsSpec::default(),
             start: StartSpec::default(),
+            time_step: TimeStepSpec::default(),
             check: Vec::new(),
             quick: None,
         }
@@ -397,6 +417,21 @@ impl Scene {
         let full = (self.t_end / self.dt + 1e-9).floor() as usize;
         let rest = self.t_end - full as f64 * self.dt;
         (full, (rest > 1e-9 * self.dt).then_some(rest))
+    }
+
+    /// The automatic time step, when the scene's steps are chosen automatically (`[time_step]`;
+    /// by default for `flow` and `dam_break`); `None`: every step is `dt`.
+    pub fn auto_time_step(&self) -> Option<AutoTimeStep> {
+        let ts = &self.time_step;
+        if !ts.auto.unwrap_or(self.case.uses_blocks()) {
+            return None;
+        }
+        let d = AutoTimeStep::default();
+        Some(AutoTimeStep {
+            advective: ts.advective.unwrap_or(d.advective),
+            viscous: ts.viscous.unwrap_or(d.viscous),
+            force: ts.force.unwrap_or(d.force),
+        })
     }
 
     /// The per-step diagnostics the scene's output asks for.
@@ -616,7 +651,28 @@ impl Scene {
             probes,
             neighbors,
             bytes: n * (BYTES_PER_PARTICLE + BYTES_PER_PAIR * neighbors) + probes * 100.0,
-            steps: (self.t_end / self.dt).ceil(),
+            steps: (self.t_end / self.step_bound().0).ceil(),
+        }
+    }
+
+    /// The largest step the run can take and what sets it: `dt`, or with the automatic step
+    /// the smaller of `dt` and the limits known before the run (viscous and body force; the
+    /// advective one depends on the flow).
+    pub fn step_bound(&self) -> (f64, Option<DtBound>) {
+        match self.auto_time_step() {
+            None => (self.dt, None),
+            Some(a) => {
+                let nu = self.effects.viscosity.map_or(0.0, |v| v.nu);
+                let g = self.effects.gravity.map_or(0.0, |g| {
+                    g[..self.dim.min(3)]
+                        .iter()
+                        .map(|c| c * c)
+                        .sum::<f64>()
+                        .sqrt()
+                });
+                let (dt, b) = a.choose(self.dt, self.h(), 0.0, nu, g);
+                (dt, Some(b))
+            }
         }
     }
 
@@ -823,6 +879,20 @@ impl Validator<'_> {
         }
         if !positive(s.dt) {
             return self.bad("dt", format!("must be a positive number, got {}", s.dt));
+        }
+        for (key, value) in [
+            ("advective", s.time_step.advective),
+            ("viscous", s.time_step.viscous),
+            ("force", s.time_step.force),
+        ] {
+            if let Some(c) = value
+                && !(c.is_finite() && c > 0.0 && c <= 1.0)
+            {
+                return self.bad(
+                    format!("time_step.{key}"),
+                    format!("must be in (0, 1], got {c}"),
+                );
+            }
         }
         if !positive(s.t_end) {
             return self.bad(
@@ -1570,9 +1640,16 @@ impl Validator<'_> {
             return self.bad(
                 "t_end",
                 format!(
-                    "needs {:.3e} steps of dt = {} (limit {}; raise [limits] max_steps)",
+                    "needs {:.3e} steps of dt = {:e}{} (limit {}; raise [limits] max_steps)",
                     e.steps,
-                    s.dt,
+                    s.step_bound().0,
+                    match s.step_bound().1 {
+                        Some(b) if b != DtBound::Scene => format!(
+                            ", the automatic step's {}",
+                            b.name().trim_start_matches("the ")
+                        ),
+                        _ => String::new(),
+                    },
                     l.steps()
                 ),
             );

@@ -1,3 +1,4 @@
+use crate::time_step::DtBound;
 use sph_neighbors::NeighborError;
 use sph_pressure::{PressureError, SolveError};
 use thiserror::Error;
@@ -55,8 +56,8 @@ pub enum StepError {
     /// by Morris, Fox & Zhu 1997) as `dx` shrinks. The Re 100 cavity runs at 0.15 (100²) and
     /// 0.30 (500², `Δt = 1e-4`), and blew up in its second step at 0.74 (500², `Δt = dx/4`).
     #[error(
-        "step {step} (t = {t:.6e}): blow-up: particle {particle} would move {value:.3e} smoothing lengths in one step (limit {limit:e}); the time step is too large for this flow ({}), or the flow is unstable",
-        blow_up_numbers(*advective_number, *viscous_number)
+        "step {step} (t = {t:.6e}): blow-up: particle {particle} would move {value:.3e} smoothing lengths in one step (limit {limit:e}); {}",
+        blow_up_cause(*advective_number, *viscous_number, *dt_bound)
     )]
     BlowUp {
         /// Step number.
@@ -73,6 +74,9 @@ pub enum StepError {
         viscous_number: f64,
         /// The step's advective number `max |u| Δt / h` at its start.
         advective_number: f64,
+        /// The limit that set the step's `Δt`, when it was chosen automatically (set by the run
+        /// loop, which chose it; `None` from a step).
+        dt_bound: Option<DtBound>,
     },
     /// A fluid particle would end deeper in wall material than the walls are thick: it has passed
     /// through a wall. The particles are left as they were before the step.
@@ -99,7 +103,33 @@ pub enum StepError {
         /// The offending value.
         dt: f64,
     },
+    /// The automatic time step fell below [`COLLAPSE_FRACTION`] of the largest step so far: the
+    /// flow is running away (its speed, and with it the advective limit, without bound), which a
+    /// shrinking step would otherwise follow for ever without any one step moving a particle far.
+    #[error(
+        "step {step} (t = {t:.6e}): blow-up: the automatic time step fell to {dt:.3e}, below {COLLAPSE_FRACTION:e} of the run's largest step {largest:.3e} ({} binds: the largest speed is {speed:.3e})",
+        bound.name()
+    )]
+    TimeStepCollapse {
+        /// Step number.
+        step: usize,
+        /// Time at the start of the step.
+        t: f64,
+        /// The step the limits allow.
+        dt: f64,
+        /// The largest step taken so far.
+        largest: f64,
+        /// The largest fluid speed at the step's start.
+        speed: f64,
+        /// The limit that set it.
+        bound: DtBound,
+    },
 }
+
+/// The smallest automatic time step, as a fraction of the run's largest, before the run is
+/// stopped as a blow-up ([`StepError::TimeStepCollapse`]). A dam break's steps shrink about
+/// twentyfold from rest to its front's speed; a blow-up's by many orders of magnitude.
+pub const COLLAPSE_FRACTION: f64 = 1e-3;
 
 impl StepError {
     /// The error with a particle slot it names replaced by `ids[slot]`, the particle's index in
@@ -116,6 +146,24 @@ impl StepError {
             _ => {}
         }
         self
+    }
+}
+
+/// The blow-up message's cause: with a fixed step, "the time step is too large … or the flow
+/// is unstable" with the step's numbers; with an automatic one, which limit set the step
+/// (then the step was within every limit: the flow is unstable).
+fn blow_up_cause(advective: f64, viscous: f64, bound: Option<DtBound>) -> String {
+    let numbers = blow_up_numbers(advective, viscous);
+    match bound {
+        None => {
+            format!("the time step is too large for this flow ({numbers}), or the flow is unstable")
+        }
+        Some(b) => format!(
+            "the automatic time step was set by {} and kept every limit ({numbers}): the flow is \
+             unstable at this resolution, or the limits' coefficients (`[time_step]`) are too large \
+             for it",
+            b.name()
+        ),
     }
 }
 

@@ -36,12 +36,12 @@ pub use config::{
     Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, ShiftScale, ShiftVelocity, Shifting,
     SimConfig, Viscosity,
 };
-pub use error::StepError;
+pub use error::{COLLAPSE_FRACTION, StepError};
 pub use frame::Frame;
 pub use relax::{RELAX_COEFFICIENT, RelaxReport};
 pub use report::{DetFStats, EnergyBudget, Phase, PhaseTimes, StepReport};
 pub use schemes::{DgIsph, EulerIsph, Integrator, PredictorCorrectorIsph, Scheme, SchemeKind};
 pub use simulation::Simulation;
-pub use time_step::TimeStep;
+pub use time_step::{AutoTimeStep, DtBound};
 pub use wall_geometry::{WallBox, WallBoxKind, WallGeometry};
 pub use walls::{WallCondition, WallError, WallModel, Walls};

@@ -518,6 +518,7 @@ fn blow_up<D: Dim>(
             .sqrt()
             * dt
             / h,
+        dt_bound: None,
     }
 }
 

@@ -427,6 +427,7 @@ fn step_errors_name_initial_indices() {
         limit: 1.0,
         viscous_number: 0.0,
         advective_number: 0.1,
+        dt_bound: None,
     };
     match e.with_particle_ids(&[5, 7, 6]) {
         StepError::BlowUp { particle, .. } => assert_eq!(particle, 7),

@@ -66,11 +66,13 @@ fn a_drop_hitting_a_wall_gains_no_energy() {
 /// range of the neighbours' velocities it creates no new extremum, and the energy never rises
 /// (measured: never above its start for any scheme; with the Taylor correction +74 % to +241 %).
 /// At dx = 0.04 (80 particles) the paper's projection itself adds energy at the impact, so the
-/// test runs at dx = 0.02.
+/// test runs at dx = 0.02, and at the fixed step 1e-3: with the automatic step (down to 2.4e-4
+/// in the splash) the paper's projection adds energy there too (Euler: +0.62 J/m of projection
+/// work against −0.04 at 1e-3; docs/hard-cases.md), which is not what this test is about.
 #[test]
 fn a_limited_shift_correction_adds_no_energy_at_an_impact() {
     let worst_rise = |correction: &str, kind: SchemeKind| {
-        let extra = "[pressure]\ngradient = \"difference\"\nrenormalise = true\n";
+        let extra = "[time_step]\nauto = false\n[pressure]\ngradient = \"difference\"\nrenormalise = true\n";
         let text = falling_drop(2, 0.02, extra).replace(
             "shifting = { coefficient = 2.0 }",
             &format!("shifting = {{ coefficient = 2.0, velocity_correction = \"{correction}\" }}"),
@@ -388,4 +390,109 @@ fn relaxation_packs_a_jittered_tank_before_the_clock<D>() {
         assert!(plain.failure.is_some(), "the unrelaxed 2D tank ran through");
     }
 }
+}
+
+sph_core::dim_tests! {
+/// The automatic time step (the flow scenes' default): a collapsing column starts at rest, so
+/// its first step is the body-force limit `0.25 √(h/g)`; once it moves, steps are the
+/// advective limit `0.2 h / max|u|` of the speed at the step's start (the previous record's,
+/// one record per step), never above the scene's `dt`; the last step ends at `t_end`. The same
+/// steps to the bit on 1 and 3 threads; with `auto = false` every step is `dt`.
+fn the_automatic_step_is_the_binding_limit<D>() {
+    let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
+    let h = 1.3 * dx;
+    let v = |a: f64, b: f64| {
+        if D::DIM == 2 {
+            format!("[{a}, {b}]")
+        } else {
+            format!("[{a}, {b}, {a}]")
+        }
+    };
+    let text = |extra: &str| {
+        format!(
+            "dim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 0.05\nt_end = 0.25\n\
+             schemes = [\"euler\"]\n\
+             [[fluid]]\nshape = \"box\"\nmin = {}\nmax = {}\nhydrostatic = true\n\
+             [[wall]]\nmin = {}\nmax = {}\nopen = [\"+y\"]\n\
+             [free_surface]\n[effects]\ngravity = [0.0, -9.81, 0.0]\n\
+             [output]\nsample_every = 1\n{extra}",
+            D::DIM,
+            v(0.0, 0.0),
+            v(0.4, 0.4),
+            v(0.0, 0.0),
+            v(1.2, 0.8),
+        )
+    };
+    let scene = parse_scene("column", &text("")).unwrap();
+    let go = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| crate::support::run(&scene, SchemeKind::Euler))
+    };
+    let (out, sink) = go(1);
+    assert!(out.failure.is_none(), "{:?}", out.failure);
+    assert_eq!(out.t, 0.25, "the last step ends at t_end");
+    let (dt, bound, speed) = (
+        sink.column("dt"),
+        sink.column("dt_bound"),
+        sink.column("max_speed"),
+    );
+    let force = 0.25 * (h / 9.81f64).sqrt();
+    assert_eq!((dt[1], bound[1]), (force, 3.0), "the first step, from rest");
+    // The last two steps may split what is left into two halves.
+    let mut advective = 0;
+    for k in 1..dt.len() {
+        assert!(dt[k] <= 0.05, "step {k}: {}", dt[k]);
+        if bound[k] == 1.0 {
+            let limit = 0.2 * h / speed[k - 1];
+            assert!(dt[k] <= limit * (1.0 + 1e-14), "step {k}: {} > {limit}", dt[k]);
+            if k + 2 < dt.len() {
+                assert!((dt[k] - limit).abs() <= 1e-14 * limit, "step {k}: {} ≠ {limit}", dt[k]);
+                advective += 1;
+            }
+        }
+    }
+    assert!(advective >= 5, "the flow accelerates: {advective} advective steps");
+    assert!(out.results["dt_min"] < out.results["dt_max"]);
+    let (_, sink3) = go(3);
+    let bits = |s: &sph_cases::run::MemorySink| {
+        s.column("dt").iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+    };
+    assert!(bits(&sink) == bits(&sink3), "steps differ between 1 and 3 threads");
+    let fixed = parse_scene("column", &text("[time_step]\nauto = false\n")).unwrap();
+    let (_, sink) = crate::support::run(&fixed, SchemeKind::Euler);
+    let dt = sink.column("dt");
+    assert!(dt[1..].iter().all(|&d| (d - 0.05).abs() < 1e-15), "{dt:?}");
+    assert!(sink.column("dt_bound")[1..].iter().all(|b| b.is_nan()));
+}
+}
+
+/// A flow that runs away under the automatic step (the Taylor–Green vortex without shifting,
+/// quick preset: particles gather on the stagnation lines) is stopped as a blow-up when the
+/// step falls below `COLLAPSE_FRACTION` of the run's largest, naming the limit that binds;
+/// the shrinking step would otherwise follow its speed without any step moving a particle
+/// further than `h` (speeds of 1e26 were reached).
+#[test]
+fn a_runaway_flow_stops_when_the_automatic_step_collapses() {
+    use sph_integrators::{COLLAPSE_FRACTION, DtBound, StepError};
+    let text = include_str!("../../../../cases/hard/taylor_green_no_shift.toml");
+    let scene = parse_scene("taylor_green_no_shift", text).unwrap().quick();
+    let (out, _) = crate::support::run(&scene, SchemeKind::Euler);
+    match out.failure {
+        Some(StepError::TimeStepCollapse {
+            dt,
+            largest,
+            speed,
+            bound,
+            ..
+        }) => {
+            assert!(dt < COLLAPSE_FRACTION * largest);
+            assert_eq!(bound, DtBound::Advective);
+            assert!(speed > 100.0, "speed {speed}");
+        }
+        other => panic!("expected the step to collapse: {other:?}"),
+    }
+    assert!(out.t < 1.0, "t = {}", out.t);
 }
