@@ -879,6 +879,27 @@ fn cases() -> Vec<Case> {
             "viscous limit",
         ),
         (
+            "channel without viscosity",
+            TANK,
+            "[free_surface]",
+            "[channel]\nkind = \"couette\"\nheight = 1.0\nwall_speed = 1.0\n[free_surface]",
+            "viscosity",
+        ),
+        (
+            "channel of zero height",
+            TANK,
+            "[free_surface]",
+            "[channel]\nkind = \"poiseuille\"\nheight = 0.0\n[free_surface]",
+            "channel.height",
+        ),
+        (
+            "unknown channel kind",
+            TANK,
+            "[free_surface]",
+            "[channel]\nkind = \"hagen\"\nheight = 1.0\n[free_surface]",
+            "hagen",
+        ),
+        (
             "unknown time-step key",
             TANK,
             "[free_surface]",

@@ -217,6 +217,32 @@ pub struct OutputSpec {
     pub vtk: bool,
 }
 
+/// `[channel]` (`flow`): a start-up flow between two plates normal to y, from rest, measured
+/// against its series solution ([`channel_velocity`](crate::flow::channel_velocity)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelSpec {
+    /// `poiseuille` (driven by the scene's gravity along x, both plates at rest) or `couette`
+    /// (the upper plate moves at `wall_speed` along x from t = 0).
+    pub kind: ChannelKind,
+    /// y of the lower plate's face. Default 0.
+    pub bottom: Option<f64>,
+    /// The gap `L` between the plates' faces.
+    pub height: f64,
+    /// Couette: the upper plate's speed.
+    pub wall_speed: Option<f64>,
+}
+
+/// Which start-up channel flow.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ChannelKind {
+    /// Body force `F` along x between plates at rest.
+    Poiseuille,
+    /// The upper plate sliding at `U₀` along x.
+    Couette,
+}
+
 /// `[start]`: how the initial state is prepared before the clock starts.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -19,6 +19,7 @@
 //! after [`CENTRE_PRESSURE_STEP`] steps. Checks: the scene's `[[check]]` tables, on the run
 //! loop's results (`max_wall_penetrations`, `reached_t`, `max_speed`, ...) and these.
 
+use crate::blocks::ChannelKind;
 use crate::case::{Case, Column, Finish, Results, Setup};
 use crate::{CaseError, Scene};
 use sph_core::{Dim, VectorOps};
@@ -66,7 +67,7 @@ pub fn centroid<D: Dim>(sim: &Simulation<D>) -> D::Vector {
 }
 
 /// The results of a flow run besides the run loop's.
-pub const RESULTS: [&str; 19] = [
+pub const RESULTS: [&str; 21] = [
     "centroid_x",
     "centroid_y",
     "centroid_z",
@@ -86,7 +87,95 @@ pub const RESULTS: [&str; 19] = [
     "centre_pressure_error",
     "t_contact",
     "pool_speed_ratio_before_contact",
+    "channel_centre_error_max",
+    "channel_profile_error_max",
 ];
+
+/// The start-up channel flows' exact velocity `u_x(y, t)`, `0 ≤ y ≤ L` from the lower plate,
+/// from rest at `t = 0` with no slip at both plates, viscosity `ν` — the start-up flows Morris,
+/// Fox & Zhu (1997) test their viscous term with. Poiseuille (both plates at rest, body force
+/// `F` along x):
+///
+/// ```text
+/// u = F y (L − y) / (2ν) − Σ_{n odd} 4 F L² / (ν π³ n³) · sin(nπy/L) · exp(−n²π²νt/L²)
+/// ```
+///
+/// Couette (the upper plate at `U₀` from `t = 0`):
+///
+/// ```text
+/// u = U₀ y / L + Σ_{n ≥ 1} 2 U₀ (−1)ⁿ / (nπ) · sin(nπy/L) · exp(−n²π²νt/L²)
+/// ```
+///
+/// Both are derived here from `u_t = ν u_yy + F`: the steady profile less a decaying sine
+/// series that cancels it at `t = 0` (`y (L − y)` has the coefficients `8L²/(n³π³)` for odd `n`,
+/// `y/L` has `2(−1)ⁿ⁺¹/(nπ)`; tests check the equation, the plates and both limits). `drive` is
+/// `F` or `U₀`. The series is summed until its terms fall below 1e-17 of the steady scale (at
+/// most 10⁶ terms; `t > 0`).
+pub fn channel_velocity(kind: ChannelKind, y: f64, t: f64, l: f64, nu: f64, drive: f64) -> f64 {
+    use std::f64::consts::PI;
+    let decay = PI * PI * nu * t / (l * l);
+    let (mut u, scale) = match kind {
+        ChannelKind::Poiseuille => {
+            let steady = drive * y * (l - y) / (2.0 * nu);
+            (steady, drive * l * l / (8.0 * nu))
+        }
+        ChannelKind::Couette => (drive * y / l, drive.abs()),
+    };
+    for n in 1..=1_000_000u32 {
+        let nf = f64::from(n);
+        let e = (-nf * nf * decay).exp();
+        let term = match kind {
+            ChannelKind::Poiseuille if n % 2 == 0 => continue,
+            ChannelKind::Poiseuille => -4.0 * drive * l * l / (nu * PI.powi(3) * nf.powi(3)),
+            ChannelKind::Couette => {
+                let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
+                2.0 * drive * sign / (nf * PI)
+            }
+        } * e;
+        u += term * (nf * PI * y / l).sin();
+        if term.abs() < 1e-17 * scale {
+            break;
+        }
+    }
+    u
+}
+
+/// A channel flow's errors at the current state, over the steady centreline speed (`F L²/8ν`,
+/// or `U₀`): the mean `u_x` of the fluid particles within `dx/2` of the centreline against the
+/// exact centreline speed, and the largest `|u_x,i − u(y_i, t)|` over the fluid.
+fn channel_errors<D: Dim>(
+    sim: &Simulation<D>,
+    kind: ChannelKind,
+    bottom: f64,
+    l: f64,
+    nu: f64,
+    drive: f64,
+    dx: f64,
+) -> (f64, f64) {
+    let scale = match kind {
+        ChannelKind::Poiseuille => (drive * l * l / (8.0 * nu)).abs(),
+        ChannelKind::Couette => drive.abs(),
+    };
+    let nf = sim.fluid_len();
+    let (x, u) = (&sim.particles.positions, &sim.particles.velocities);
+    let (mut sum, mut count, mut worst) = (0.0, 0usize, 0.0f64);
+    for i in 0..nf {
+        let y = x[i].get(1) - bottom;
+        let exact = channel_velocity(kind, y, sim.t, l, nu, drive);
+        worst = worst.max((u[i].get(0) - exact).abs());
+        if (y - 0.5 * l).abs() <= 0.5 * dx {
+            sum += u[i].get(0);
+            count += 1;
+        }
+    }
+    let centre = channel_velocity(kind, 0.5 * l, sim.t, l, nu, drive);
+    let centre_error = if count > 0 {
+        (sum / count as f64 - centre).abs() / scale
+    } else {
+        f64::NAN
+    };
+    (centre_error, worst / scale)
+}
 
 /// Still water counts as settled after `t √(g/H)` = this (the hard suite's criterion).
 pub const SETTLED_AFTER: f64 = 20.0;
@@ -146,6 +235,12 @@ pub struct FlowCase {
     /// pool's largest speed over `√(gH)` before it.
     t_contact: f64,
     pool_speed_max: f64,
+    /// A start-up channel flow (`[channel]`): `(kind, bottom, L, ν, F or U₀)`, and the largest
+    /// errors of the centreline speed and of the whole profile over the steady centreline
+    /// speed.
+    channel: Option<(ChannelKind, f64, f64, f64, f64)>,
+    channel_centre_max: f64,
+    channel_profile_max: f64,
 }
 
 impl FlowCase {
@@ -198,6 +293,15 @@ impl FlowCase {
             pool_and_falling: false,
             t_contact: f64::NAN,
             pool_speed_max: f64::NAN,
+            channel: scene.channel.map(|c| {
+                let drive = match c.kind {
+                    ChannelKind::Poiseuille => scene.effects.gravity.map_or(0.0, |g| g[0]),
+                    ChannelKind::Couette => c.wall_speed.unwrap_or(0.0),
+                };
+                (c.kind, c.bottom.unwrap_or(0.0), c.height, nu, drive)
+            }),
+            channel_centre_max: f64::NAN,
+            channel_profile_max: f64::NAN,
         }
     }
 
@@ -412,6 +516,9 @@ impl<D: Dim> Case<D> for FlowCase {
         pool_and_falling,
         t_contact,
         pool_speed_max,
+        channel,
+        channel_centre_max,
+        channel_profile_max,
     );
 
     fn setup(&self) -> Result<Setup<D>, CaseError> {
@@ -637,6 +744,13 @@ impl<D: Dim> Case<D> for FlowCase {
             f64::NAN
         };
         self.void_max = self.void_max.max(void);
+        if let Some((kind, bottom, l, nu, drive)) = self.channel
+            && sim.t > 0.0
+        {
+            let (centre, profile) = channel_errors(sim, kind, bottom, l, nu, drive, self.scene.dx);
+            self.channel_centre_max = self.channel_centre_max.max(centre);
+            self.channel_profile_max = self.channel_profile_max.max(profile);
+        }
         out.extend_from_slice(&[
             c[0], c[1], c[2], lo, hi, isolated, ke_error, hydro, energy, void,
         ]);
@@ -698,6 +812,8 @@ impl<D: Dim> Case<D> for FlowCase {
             ("centre_pressure_error_first_step", self.centre_first),
             ("centre_pressure_error", self.centre_error),
             ("t_contact", self.t_contact),
+            ("channel_centre_error_max", self.channel_centre_max),
+            ("channel_profile_error_max", self.channel_profile_max),
             ("pool_speed_ratio_before_contact", self.pool_speed_max),
         ] {
             results.insert(name.into(), v);
@@ -800,6 +916,70 @@ mod tests {
                 ball(r / dx + 0.5 * (D::DIM as f64).sqrt()),
             );
             assert!(area >= lower && area <= upper, "area {area}, expected {lower} to {upper}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod channel_tests {
+    use super::channel_velocity;
+    use crate::blocks::ChannelKind;
+
+    /// The series solves `u_t = ν u_yy + F` (centred differences), is 0 on both plates (the
+    /// upper one moving at `U₀` for Couette), starts from rest and ends at the steady profile.
+    #[test]
+    fn the_channel_series_solves_the_start_up_problem() {
+        let (l, nu) = (1e-3, 1e-6);
+        for (kind, drive) in [
+            (ChannelKind::Poiseuille, 2e-4),
+            (ChannelKind::Couette, 2.5e-5),
+        ] {
+            let u = |y: f64, t: f64| channel_velocity(kind, y, t, l, nu, drive);
+            let force = if kind == ChannelKind::Poiseuille {
+                drive
+            } else {
+                0.0
+            };
+            let scale = 2.5e-5;
+            for &t in &[0.01, 0.05, 0.2] {
+                for &y in &[0.2 * l, 0.5 * l, 0.77 * l] {
+                    let (dy, dt) = (1e-3 * l, 1e-4 * t);
+                    let u_t = (u(y, t + dt) - u(y, t - dt)) / (2.0 * dt);
+                    let u_yy = (u(y + dy, t) - 2.0 * u(y, t) + u(y - dy, t)) / (dy * dy);
+                    let residual = (u_t - nu * u_yy - force).abs();
+                    let size = u_t.abs() + (nu * u_yy).abs() + force;
+                    assert!(
+                        residual < 1e-4 * size,
+                        "{kind:?} y {y} t {t}: {residual:e} of {size:e}"
+                    );
+                }
+                assert!(u(0.0, t).abs() < 1e-12 * scale, "{kind:?}: lower plate");
+                let top = if kind == ChannelKind::Couette {
+                    drive
+                } else {
+                    0.0
+                };
+                assert!(
+                    (u(l, t) - top).abs() < 1e-9 * scale,
+                    "{kind:?}: upper plate {}",
+                    u(l, t)
+                );
+            }
+            // From rest (the series at a very small time) to the steady profile.
+            assert!(
+                u(0.5 * l, 1e-9).abs() < 1e-3 * scale,
+                "{kind:?}: {}",
+                u(0.5 * l, 1e-9)
+            );
+            let steady = if kind == ChannelKind::Poiseuille {
+                drive * l * l / (8.0 * nu)
+            } else {
+                0.5 * drive
+            };
+            assert!(
+                (u(0.5 * l, 50.0) - steady).abs() < 1e-12 * scale,
+                "{kind:?}"
+            );
         }
     }
 }

@@ -28,8 +28,9 @@
 
 use crate::CaseError;
 use crate::blocks::{
-    CheckSpec, DiagnosticKind, DomainSpec, FluidBlock, FluidShape, FreeSurfaceSpec, GradientChoice,
-    LimitsSpec, OutputSpec, PressureSpec, StartSpec, WallBlock, WallKind, axis_index, face_index,
+    ChannelKind, ChannelSpec, CheckSpec, DiagnosticKind, DomainSpec, FluidBlock, FluidShape,
+    FreeSurfaceSpec, GradientChoice, LimitsSpec, OutputSpec, PressureSpec, StartSpec, WallBlock,
+    WallKind, axis_index, face_index,
 };
 use serde::{Deserialize, Serialize};
 use sph_integrators::{
@@ -298,6 +299,8 @@ pub struct Scene {
     /// The automatic time step (`dt` its upper bound).
     #[serde(default)]
     pub time_step: TimeStepSpec,
+    /// A start-up channel flow measured against its series solution (`flow`).
+    pub channel: Option<ChannelSpec>,
     /// Pass criteria on the run's results, declared before the run.
     #[serde(default)]
     pub check: Vec<CheckSpec>,
@@ -392,6 +395,7 @@ impl Scene {
             limits: LimitsSpec::default(),
             start: StartSpec::default(),
             time_step: TimeStepSpec::default(),
+            channel: None,
             check: Vec::new(),
             quick: None,
         }
@@ -892,6 +896,45 @@ impl Validator<'_> {
                     format!("time_step.{key}"),
                     format!("must be in (0, 1], got {c}"),
                 );
+            }
+        }
+        if let Some(c) = &s.channel {
+            if s.case != CaseKind::Flow {
+                return self.bad("channel", "applies to `flow` scenes only");
+            }
+            if !positive(c.height) {
+                return self.bad(
+                    "channel.height",
+                    format!("must be a positive number, got {}", c.height),
+                );
+            }
+            if !c.bottom.unwrap_or(0.0).is_finite() {
+                return self.bad("channel.bottom", "must be a finite number");
+            }
+            if !s.effects.viscosity.is_some_and(|v| v.nu > 0.0) {
+                return self.bad(
+                    "channel",
+                    "a channel flow needs [effects] viscosity = { nu = ... } > 0",
+                );
+            }
+            match c.kind {
+                ChannelKind::Poiseuille => {
+                    if !s.effects.gravity.is_some_and(|g| g[0] != 0.0) {
+                        return self.bad(
+                            "channel",
+                            "a Poiseuille flow is driven by [effects] gravity along x (nonzero x \
+                             component)",
+                        );
+                    }
+                }
+                ChannelKind::Couette => {
+                    if !c.wall_speed.is_some_and(|u| u.is_finite() && u != 0.0) {
+                        return self.bad(
+                            "channel.wall_speed",
+                            "a Couette flow needs the upper plate's speed (nonzero)",
+                        );
+                    }
+                }
             }
         }
         if !positive(s.t_end) {
