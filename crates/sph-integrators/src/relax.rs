@@ -18,6 +18,7 @@
 use crate::error::StepError;
 use crate::projection::prepare;
 use crate::report::PhaseTimes;
+use crate::schemes::constrain_shift;
 use crate::simulation::{Simulation, engine_context};
 use rayon::prelude::*;
 use sph_core::{Dim, VectorOps};
@@ -83,30 +84,13 @@ impl<D: Dim> Simulation<D> {
                 .enumerate()
                 .with_min_len(1024)
                 .for_each(|(i, d)| {
-                    let mut dr = grad_c[i] * (-RELAX_COEFFICIENT * h * h);
+                    let dr = grad_c[i] * (-RELAX_COEFFICIENT * h * h);
                     // Within a support of the free surface only the part tangential to it:
                     // there −∇C points out of the truncated support and would spread the fluid.
-                    // The normal is that of the truncated support, ν = Σ V_j ∇W_ij.
                     let near_surface = free
                         && (e.dirichlet[i]
                             || e.neighbors.row(i).iter().any(|&j| e.dirichlet[j as usize]));
-                    if near_surface {
-                        let ctx = engine_context!(e, x);
-                        let mut nu = D::Vector::ZERO;
-                        ctx.for_each_pair(i, |p| nu += p.grad_w * ctx.volumes[p.j]);
-                        let n2 = nu.length_squared();
-                        if n2 > 0.0 {
-                            dr -= nu * (dr.dot(nu) / n2);
-                        }
-                    }
-                    let len = dr.length();
-                    if len > cap {
-                        dr *= cap / len;
-                    }
-                    if let Some(w) = &e.walls {
-                        dr = w.limit_shift(x[i], dr);
-                    }
-                    *d = dr;
+                    *d = constrain_shift(e, x, i, dr, near_surface, cap);
                 });
             let largest = disp
                 .iter()

@@ -208,29 +208,12 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
                 ShiftScale::Local => u_new.length(),
                 ShiftScale::Max => u_max,
             };
-            let mut dr = g * (-sh.coefficient * h * speed * dt);
+            let dr = g * (-sh.coefficient * h * speed * dt);
             // On a free surface only the part tangential to it is kept (Lind et al. 2012,
             // Sec. 3.3): the normal part of −∇C points out of the fluid and would spread the
             // surface. Particles below the surface keep the whole shift, which keeps them from
             // running into the surface layer (whose p = 0 cannot push them back).
-            if free && e.dirichlet[i] {
-                // The normal of the truncated support, ν = Σ V_j ∇W_ij (without the
-                // anti-clumping term, so the shift keeps its tangential part).
-                let ctx = engine_context!(e, x);
-                let mut nu = D::Vector::ZERO;
-                ctx.for_each_pair(i, |p| nu += p.grad_w * ctx.volumes[p.j]);
-                let n2 = nu.length_squared();
-                if n2 > 0.0 {
-                    dr -= nu * (dr.dot(nu) / n2);
-                }
-            }
-            let len = dr.length();
-            if len > cap {
-                dr *= cap / len;
-            }
-            if let Some(w) = &e.walls {
-                dr = w.limit_shift(x[i], dr);
-            }
+            let dr = constrain_shift(e, x, i, dr, free && e.dirichlet[i], cap);
             *disp += dr;
             match sh.velocity_correction {
                 ShiftVelocity::Taylor => *u_new += grad_u[i] * dr,
@@ -248,6 +231,38 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
                 }
             }
         });
+}
+
+/// The constraints every shift of particle `i` obeys (shifting and the start's packing): with
+/// `tangential`, only the part tangential to the surface, whose normal is that of the truncated
+/// support, `ν = Σ V_j ∇W_ij` (without the anti-clumping term, so the shift keeps its
+/// tangential part); then at most `cap` long, and at most half the distance to a wall
+/// ([`Walls::limit_shift`](crate::Walls::limit_shift)).
+pub(crate) fn constrain_shift<D: Dim>(
+    e: &Engine<D>,
+    x: &[D::Vector],
+    i: usize,
+    mut dr: D::Vector,
+    tangential: bool,
+    cap: f64,
+) -> D::Vector {
+    if tangential {
+        let ctx = engine_context!(e, x);
+        let mut nu = D::Vector::ZERO;
+        ctx.for_each_pair(i, |p| nu += p.grad_w * ctx.volumes[p.j]);
+        let n2 = nu.length_squared();
+        if n2 > 0.0 {
+            dr -= nu * (dr.dot(nu) / n2);
+        }
+    }
+    let len = dr.length();
+    if len > cap {
+        dr *= cap / len;
+    }
+    if let Some(w) = &e.walls {
+        dr = w.limit_shift(x[i], dr);
+    }
+    dr
 }
 
 /// Where the projection is evaluated and how positions are advanced.

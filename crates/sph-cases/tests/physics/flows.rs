@@ -25,6 +25,15 @@ fn falling_drop(dim: usize, dx: f64, extra: &str) -> String {
     )
 }
 
+/// A scene's point `[a, b]` in 2D, `[a, b, a]` in 3D.
+fn point(dim: usize, a: f64, b: f64) -> String {
+    if dim == 2 {
+        format!("[{a}, {b}]")
+    } else {
+        format!("[{a}, {b}, {a}]")
+    }
+}
+
 /// Total energy `KE + M g y_c` over the records of a run.
 fn energies(sink: &sph_cases::run::MemorySink, mass: f64) -> Vec<(f64, f64)> {
     let t = sink.column("t");
@@ -132,13 +141,7 @@ fn wall_lets_separating_fluid_go<D>() {
     use sph_core::VectorOps;
     use sph_integrators::{Integrator, Scheme};
     let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
-    let v = |a: f64, b: f64| {
-        if D::DIM == 2 {
-            format!("[{a}, {b}]")
-        } else {
-            format!("[{a}, {b}, {a}]")
-        }
-    };
+    let v = |a: f64, b: f64| point(D::DIM, a, b);
     for uy in [1.0, -1.0] {
         let text = format!(
             "dim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 1e-3\nt_end = 0.01\nschemes = [\"euler\"]\n\
@@ -349,13 +352,7 @@ sph_core::dim_tests! {
 /// them (docs/hard-cases.md: the projection's amplification on disordered particles).
 fn relaxation_packs_a_jittered_tank_before_the_clock<D>() {
     let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
-    let v = |a: f64, b: f64| {
-        if D::DIM == 2 {
-            format!("[{a}, {b}]")
-        } else {
-            format!("[{a}, {b}, {a}]")
-        }
-    };
+    let v = |a: f64, b: f64| point(D::DIM, a, b);
     let text = |relax: usize| {
         format!(
             "dim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 2e-3\nt_end = 0.02\n\
@@ -401,13 +398,7 @@ sph_core::dim_tests! {
 fn the_automatic_step_is_the_binding_limit<D>() {
     let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
     let h = 1.3 * dx;
-    let v = |a: f64, b: f64| {
-        if D::DIM == 2 {
-            format!("[{a}, {b}]")
-        } else {
-            format!("[{a}, {b}, {a}]")
-        }
-    };
+    let v = |a: f64, b: f64| point(D::DIM, a, b);
     let text = |extra: &str| {
         format!(
             "dim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 0.05\nt_end = 0.25\n\
