@@ -53,7 +53,11 @@ const SCHEMES: [SchemeKind; 3] = [
     SchemeKind::Dg,
 ];
 const KERNELS: [KernelKind; 2] = [KernelKind::QuinticSpline, KernelKind::WendlandC2];
-const SOLVERS: [SolverKind; 2] = [SolverKind::BicgstabJacobi, SolverKind::BicgstabIlu0];
+const SOLVERS: [SolverKind; 3] = [
+    SolverKind::BicgstabAmg,
+    SolverKind::BicgstabJacobi,
+    SolverKind::BicgstabIlu0,
+];
 
 /// What one run measured: `(particles, steps, error, error2, status)`.
 type Measured = (usize, usize, f64, f64, String);

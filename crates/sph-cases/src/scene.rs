@@ -256,7 +256,7 @@ pub struct Scene {
     /// The projection's discrete operators (defaults depend on the case).
     #[serde(default)]
     pub pressure: PressureSpec,
-    /// Linear solver. Default BiCGSTAB + Jacobi.
+    /// Linear solver. Default BiCGSTAB + AMG.
     #[serde(default)]
     pub solver: SolverKind,
     /// Relative residual tolerance of the pressure solve. Default 1e-9.

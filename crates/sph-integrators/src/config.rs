@@ -179,7 +179,7 @@ pub struct SimConfig {
     /// `sph_pressure::assemble_ppe`). A hydrostatic pressure is then an exact discrete solution
     /// of a disordered particle set; needs `renormalise`. Default `false` (the paper's operators).
     pub consistent_laplacian: bool,
-    /// Linear solver. Default BiCGSTAB + Jacobi.
+    /// Linear solver. Default BiCGSTAB + AMG.
     pub solver: SolverKind,
     /// Solver tolerances.
     pub solve: SolveParams,
@@ -216,7 +216,7 @@ impl SimConfig {
             renormalise: true,
             dg_hessian: HessianForm::Eq25,
             consistent_laplacian: false,
-            solver: SolverKind::BicgstabJacobi,
+            solver: SolverKind::BicgstabAmg,
             solve: SolveParams::default(),
             warm_start: true,
             search: SearchKind::CellGrid,

@@ -27,11 +27,13 @@
 //! closed domain (no Dirichlet row) fixes the free constant with [`MeanZeroGauge`].
 //!
 //! Solvers implement [`LinearSolver`]: [`BiCgStab`] with [`Preconditioner::Jacobi`],
-//! [`Preconditioner::Ilu0`] or [`Preconditioner::Amg`] (smoothed-aggregation multigrid, for
-//! large closed 2D systems such as the cavity), warm-started from the previous pressure, and
+//! [`Preconditioner::Ilu0`] or [`Preconditioner::Amg`] (smoothed-aggregation multigrid, the default of the
+//! scenes: iterations nearly flat in the resolution), warm-started from the previous pressure, and
 //! [`SparseLu`] (faer's
-//! sparse LU, for small systems and as a test oracle). Non-convergence is an error carrying the
-//! iteration count and the true residual.
+//! sparse LU, for small systems and as a test oracle). A solve is accepted when its true relative
+//! residual meets the tolerance or, where round-off makes that unattainable, its backward error
+//! does ([`CsrSystem::backward_error`], independent of the number of unknowns); anything else is
+//! an error carrying the iteration count and the true residual.
 
 mod assembly;
 mod csr;

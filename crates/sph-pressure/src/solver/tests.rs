@@ -909,10 +909,10 @@ sph_core::dim_tests! {
     }
 }
 
-/// The backward error is `‖b − A x‖₂ / (‖A‖_F ‖x‖₂ + ‖b‖₂)`, computed here by hand for a 2 × 2
-/// system, with and without a border (whose row and column count in `‖A‖_F`).
+/// The backward error is `‖b − A x‖₂ / (‖ |A| |x| ‖₂ + ‖b‖₂)`, computed here by hand for a 2 × 2
+/// system, with and without a border (whose row and column enter `|A| |x|`).
 #[test]
-fn backward_error_is_the_normwise_formula() {
+fn backward_error_is_the_residual_against_its_terms() {
     // A = [[2, 1], [0, 3]], x = (1, 1), b = (3, 4): r = b − A x = (0, 1).
     let offsets = [0usize, 2, 3];
     let cols = [0u32, 1, 1];
@@ -927,7 +927,8 @@ fn backward_error_is_the_normwise_formula() {
     };
     let mut scratch = vec![0.0; 2];
     let eta = sys.backward_error(&[1.0, 1.0], &mut scratch);
-    let expected = 1.0 / (14.0f64.sqrt() * 2.0f64.sqrt() + 5.0);
+    // |A| |x| = (3, 3).
+    let expected = 1.0 / (18.0f64.sqrt() + 5.0);
     assert!((eta - expected).abs() < 1e-15, "{eta} against {expected}");
     // A border: one more unknown, the first row coupled to it with 0.5, the border row
     // (1, 1, 4); x = (1, 1, 1), b = (3.5, 4, 6): r = (0, 1, 0).
@@ -946,10 +947,48 @@ fn backward_error_is_the_normwise_formula() {
     };
     let mut scratch3 = vec![0.0; 3];
     let eta3 = bordered.backward_error(&[1.0, 1.0, 1.0], &mut scratch3);
-    let a_f = (14.0f64 + 0.25 + 18.0).sqrt();
-    let expected3 = 1.0 / (a_f * 3.0f64.sqrt() + (3.5f64 * 3.5 + 16.0 + 36.0).sqrt());
+    // |A| |x| = (2 + 1 + 0.5, 3, 1 + 1 + 4).
+    let ax = (3.5f64 * 3.5 + 9.0 + 36.0).sqrt();
+    let expected3 = 1.0 / (ax + (3.5f64 * 3.5 + 16.0 + 36.0).sqrt());
     assert!(
         (eta3 - expected3).abs() < 1e-15,
         "{eta3} against {expected3}"
     );
+}
+
+/// The backward error does not grow lenient with size: the same residual in every row of the
+/// periodic 1D Laplacian (`[−1, 2, −1]`, x = 1, so `A x = 0`) has the same backward error at 100
+/// and at 10 000 unknowns, where the normwise `‖r‖ / (‖A‖_F ‖x‖ + ‖b‖)` falls tenfold.
+#[test]
+fn backward_error_does_not_depend_on_the_number_of_unknowns() {
+    let eta = |n: usize| {
+        let mut offsets = vec![0usize];
+        let (mut cols, mut values) = (Vec::new(), Vec::new());
+        for i in 0..n {
+            let mut row = [((i + n - 1) % n, -1.0), (i, 2.0), ((i + 1) % n, -1.0)];
+            row.sort_by_key(|e| e.0);
+            for (c, v) in row {
+                cols.push(c as u32);
+                values.push(v);
+            }
+            offsets.push(cols.len());
+        }
+        let x = vec![1.0; n];
+        // b = A x + 1e-6 = 1e-6 in every row.
+        let rhs = vec![1e-6; n];
+        let sys = CsrSystem {
+            offsets: &offsets,
+            cols: &cols,
+            values: &values,
+            rhs: &rhs,
+            border: None,
+        };
+        let mut scratch = vec![0.0; n];
+        sys.backward_error(&x, &mut scratch)
+    };
+    let (small, large) = (eta(100), eta(10_000));
+    // 1e-6 √n / (4 √n + 1e-6 √n): each row's terms sum to 4 in absolute value.
+    let expected = 1e-6 / (4.0 + 1e-6);
+    assert!((small / expected - 1.0).abs() < 1e-9, "{small}");
+    assert!((large / expected - 1.0).abs() < 1e-9, "{large} at 10 000");
 }
