@@ -1,5 +1,7 @@
 //! Stopping a run cleanly: SIGINT (Ctrl-C) and SIGTERM set a flag that the run loop reads after
-//! each step ([`sph_cases::run::RunControl::stop`]); the run then writes a checkpoint and its
+//! each step ([`sph_cases::run::RunControl::stop`]); at the first step after which the linear
+//! solver keeps nothing it would use (at once, or within 10 AMG solves) the run writes a
+//! checkpoint and its
 //! `run.json` (status `interrupted`) and the command exits with `128 +` the signal's number
 //! (130 for SIGINT, 143 for SIGTERM), so `dgsph run … --resume` continues it. A second signal
 //! ends the process at once with the same code. SIGXFSZ (a file-size limit) is caught so that

@@ -38,12 +38,16 @@ pub struct RunControl<'a> {
     /// Continue from this checkpoint (of the same scene and scheme) instead of t = 0. The
     /// initial record is not observed again.
     pub resume: Option<&'a Checkpoint>,
-    /// Hand a checkpoint to the sink every this many steps (and after the last step).
+    /// Hand a checkpoint to the sink every this many steps (and after the last step). The
+    /// linear solver starts afresh after each (an AMG hierarchy kept between solves is not in
+    /// the checkpoint), so a run resumed from one solves as the run that wrote it goes on.
     pub checkpoint_every: Option<usize>,
     /// Metadata stored in the checkpoints (the caller's record of the scene).
     pub checkpoint_meta: String,
-    /// Set (by a signal handler, say) to stop the run after the step in progress: a checkpoint
-    /// is handed out and the run ends with [`SchemeRun::interrupted`].
+    /// Set (by a signal handler, say) to stop the run after the step in progress (or, while the
+    /// linear solver keeps set-up work it would use, after the first step where it keeps none:
+    /// at most 10 solves later): a checkpoint is handed out and the run ends with
+    /// [`SchemeRun::interrupted`].
     pub stop: Option<&'a std::sync::atomic::AtomicBool>,
 }
 
@@ -533,6 +537,7 @@ pub fn run_scheme<D: Dim>(
     let mut failure = None;
     let mut segment_steps = 0usize;
     let mut interrupted = false;
+    let mut stop_pending = false;
     let mut bound = None;
     let mut k = sim.step;
     loop {
@@ -619,22 +624,25 @@ pub fn run_scheme<D: Dim>(
                 }
             }
         }
-        let stop = !is_last
+        // A stop asked for is carried out at the first step after which the linear solver
+        // keeps nothing it would use (an AMG hierarchy is rebuilt at least every 10 solves):
+        // the run resumed from its checkpoint then goes on to the same bits as the run that
+        // was not stopped. Periodic checkpoints (and the last step's) are written when due,
+        // and the solver starts afresh after them, as a run resumed from them will.
+        stop_pending |= !is_last
             && control
                 .stop
                 .is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed));
-        if stop
-            || control
-                .checkpoint_every
-                .is_some_and(|n| k % n.max(1) == 0 || is_last)
-        {
+        let stop = stop_pending && sim.solver_keeps_nothing();
+        let periodic = control
+            .checkpoint_every
+            .is_some_and(|n| k % n.max(1) == 0 || is_last);
+        if stop || periodic {
             tally.records = records.get();
             tally.density_max = density_max.get();
             let mut c = sim.checkpoint(&control.checkpoint_meta);
             c.state = run_state(&tally, case.save_state());
             sink.checkpoint(&c)?;
-            // What the solver keeps between steps is not in the checkpoint: start it afresh,
-            // as a run resumed from this checkpoint will.
             sim.invalidate_solver_setup();
         }
         sink.progress(k, sim.t, scene.t_end);

@@ -290,8 +290,7 @@ fn projection_step<D: Dim>(
         return Err(StepError::InvalidTimeStep { step, dt });
     }
     sim.ensure_buffers();
-    let every = sim.engine.config.reorder_every;
-    if every > 0 && step > 0 && step.is_multiple_of(every) {
+    if sim.renumbers_next() {
         // Counted with the neighbour search, whose order it restores.
         let clock = Instant::now();
         sim.reorder_by_cell();

@@ -344,9 +344,11 @@ impl<D: Dim> Simulation<D> {
 
     /// Renumbers the fluid particles in the neighbour grid's cell order (see
     /// [`SimConfig::reorder_every`]): their positions, velocities, masses, densities, pressures
-    /// and ids are permuted alike, and the solver's kept set-up (whose aggregates are numbered
-    /// by slot) is dropped. Nothing happens if the particles are already in that order.
+    /// and ids are permuted alike. The solver's kept set-up (whose aggregates are numbered by
+    /// slot) is dropped in any case, so that whether the step after a renumbering starts its
+    /// solver afresh is known before it (see [`Simulation::solver_keeps_nothing`]).
     pub(crate) fn reorder_by_cell(&mut self) {
+        self.engine.solver.invalidate_setup();
         let n = self.particles.len();
         self.order.ensure(n);
         let nf = self.engine.fluid.min(n);
@@ -371,14 +373,29 @@ impl<D: Dim> Simulation<D> {
         gather(&mut p.pressures, &o.perm, &mut o.scalars);
         gather(&mut o.ids, &o.perm, &mut o.indices);
         o.index_slots();
-        self.engine.solver.invalidate_setup();
     }
 
     /// Forgets the set-up work the linear solver keeps between steps (the AMG hierarchy), so
     /// the next step solves as a simulation restored from a checkpoint of this state would.
-    /// The run loop calls it after every checkpoint; [`Simulation::restore`] calls it too.
+    /// The run loop calls it after every periodic checkpoint; [`Simulation::restore`] calls it
+    /// too.
     pub fn invalidate_solver_setup(&mut self) {
         self.engine.solver.invalidate_setup();
+    }
+
+    /// Whether the next step's solves start as a restored simulation's would: the linear
+    /// solver keeps nothing from earlier steps that it would use (an AMG hierarchy is kept for
+    /// up to 10 solves, then rebuilt). A checkpoint taken where this holds resumes to the same
+    /// bits as the run that goes on.
+    pub fn solver_keeps_nothing(&self) -> bool {
+        self.renumbers_next() || self.engine.solver.next_solve_is_fresh()
+    }
+
+    /// Whether the next step starts by renumbering the particles (every
+    /// [`SimConfig::reorder_every`] steps).
+    pub(crate) fn renumbers_next(&self) -> bool {
+        let every = self.engine.config.reorder_every;
+        every > 0 && self.step > 0 && self.step.is_multiple_of(every)
     }
 
     /// The configuration.

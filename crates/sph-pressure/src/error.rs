@@ -3,9 +3,11 @@ use thiserror::Error;
 /// Errors of the linear solvers.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum SolveError {
-    /// The iteration limit was reached before the tolerance.
+    /// The iteration limit was reached, or the iteration stalled (an inner product vanished),
+    /// before the tolerance.
     #[error(
-        "{solver} did not converge: relative residual {rel_residual:.3e} after {iterations} iterations (tolerance {tolerance:.1e})"
+        "{solver} did not converge: relative residual {rel_residual:.3e} after {iterations} iterations (tolerance {tolerance:.1e}){}",
+        .stalled.map_or(String::new(), |why| format!("; the iteration stalled: {why}"))
     )]
     NoConvergence {
         /// Solver name.
@@ -16,8 +18,12 @@ pub enum SolveError {
         rel_residual: f64,
         /// Requested tolerance.
         tolerance: f64,
+        /// Why the iteration stopped before its limit, if it did: an inner product vanished or
+        /// overflowed, which happens when the residual has stagnated at round-off.
+        stalled: Option<&'static str>,
     },
-    /// The iteration broke down (a zero inner product) or produced a non-finite value.
+    /// The iteration produced a non-finite value (BiCGSTAB: its iterate; GMRES: its residual
+    /// or Arnoldi vector) or a singular Hessenberg matrix (GMRES).
     #[error("{solver} broke down after {iterations} iterations: {reason}")]
     Breakdown {
         /// Solver name.

@@ -136,6 +136,10 @@ impl LinearSolver for BiCgStab {
     fn invalidate_setup(&mut self) {
         self.state.invalidate();
     }
+
+    fn next_solve_is_fresh(&self) -> bool {
+        self.state.next_setup_is_fresh(self.precond)
+    }
 }
 
 impl Krylov for BiCgStab {
@@ -174,25 +178,25 @@ impl Krylov for BiCgStab {
         let mut iterations = 0;
         let mut rnorm = dot(r, r).sqrt();
         let mut restarts = 0;
+        // An inner product that vanishes or overflows ends the iteration with the iterate it
+        // has reached (x is only updated with finite steps), which is then judged like any
+        // other (below): a residual stagnating at round-off makes them vanish (or, through a
+        // tiny ω, overflow), and is then either accepted as a backward error or reported as not
+        // converged, with the residual reached.
+        let mut stalled = None;
         while rnorm > tol && iterations < params.max_iterations {
             iterations += 1;
             let rho_new = dot(r0, r);
             if !rho_new.is_finite() {
-                return Err(SolveError::Breakdown {
-                    solver: name,
-                    iterations,
-                    reason: "ρ = (r̂₀, r) is not finite",
-                });
+                stalled = Some("ρ = (r̂₀, r) is not finite");
+                break;
             }
             // (r̂₀, r) ≈ 0 with r ≠ 0: the shadow residual has become orthogonal. Restart with
             // r̂₀ = r (a standard remedy), at most MAX_RESTARTS times.
             if rho_new.abs() <= 1e-14 * dot(r0, r0).sqrt() * rnorm {
                 if restarts == MAX_RESTARTS {
-                    return Err(SolveError::Breakdown {
-                        solver: name,
-                        iterations,
-                        reason: "ρ = (r̂₀, r) vanished (after restarts)",
-                    });
+                    stalled = Some("ρ = (r̂₀, r) vanished (after restarts)");
+                    break;
                 }
                 restarts += 1;
                 r0.copy_from_slice(r);
@@ -213,12 +217,13 @@ impl Krylov for BiCgStab {
             self.state.apply(self.precond, a, p, y);
             op.matvec(y, v);
             let r0v = dot(r0, v);
-            if r0v == 0.0 || !r0v.is_finite() {
-                return Err(SolveError::Breakdown {
-                    solver: name,
-                    iterations,
-                    reason: "(r̂₀, v) vanished",
-                });
+            if !r0v.is_finite() {
+                stalled = Some("(r̂₀, v) is not finite");
+                break;
+            }
+            if r0v == 0.0 {
+                stalled = Some("(r̂₀, v) vanished");
+                break;
             }
             alpha = rho / r0v;
             // x += α y; s = r − α v
@@ -235,12 +240,13 @@ impl Krylov for BiCgStab {
             self.state.apply(self.precond, a, s, y);
             op.matvec(y, t);
             let tt = dot(t, t);
-            if tt == 0.0 || !tt.is_finite() {
-                return Err(SolveError::Breakdown {
-                    solver: name,
-                    iterations,
-                    reason: "(t, t) vanished",
-                });
+            if !tt.is_finite() {
+                stalled = Some("(t, t) is not finite");
+                break;
+            }
+            if tt == 0.0 {
+                stalled = Some("(t, t) vanished");
+                break;
             }
             omega = dot(t, s) / tt;
             x.par_iter_mut()
@@ -250,11 +256,8 @@ impl Krylov for BiCgStab {
             axpy_into(r, s, -omega, t);
             rnorm = dot(r, r).sqrt();
             if omega == 0.0 {
-                return Err(SolveError::Breakdown {
-                    solver: name,
-                    iterations,
-                    reason: "ω vanished",
-                });
+                stalled = Some("ω vanished");
+                break;
             }
         }
         let rel_residual = a.rel_residual(x, t);
@@ -273,6 +276,7 @@ impl Krylov for BiCgStab {
                 iterations,
                 rel_residual,
                 tolerance: params.rel_tolerance,
+                stalled,
             });
         }
         Ok(SolveInfo {

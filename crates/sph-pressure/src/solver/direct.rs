@@ -14,6 +14,10 @@ impl LinearSolver for SparseLu {
         "sparse-lu"
     }
 
+    fn next_solve_is_fresh(&self) -> bool {
+        true
+    }
+
     fn solve(
         &mut self,
         a: &CsrSystem<'_>,

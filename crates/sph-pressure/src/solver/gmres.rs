@@ -84,6 +84,10 @@ impl LinearSolver for Gmres {
     fn invalidate_setup(&mut self) {
         self.state.invalidate();
     }
+
+    fn next_solve_is_fresh(&self) -> bool {
+        self.state.next_setup_is_fresh(self.precond)
+    }
 }
 
 impl Krylov for Gmres {
@@ -154,6 +158,7 @@ impl Krylov for Gmres {
                     iterations,
                     rel_residual: beta / bnorm,
                     tolerance: params.rel_tolerance,
+                    stalled: None,
                 });
             }
             let inv = 1.0 / beta;

@@ -282,6 +282,11 @@ pub trait LinearSolver: Send {
     /// solver's would. Called where a run is checkpointed, so a resumed run (a new solver)
     /// and the uninterrupted one solve alike.
     fn invalidate_setup(&mut self) {}
+
+    /// Whether the next solve starts as a new solver's would (nothing kept from earlier solves
+    /// is used by it): a checkpoint taken now resumes to the same bits as the run that goes
+    /// on. (Required, so that a wrapper cannot answer for what it wraps by default.)
+    fn next_solve_is_fresh(&self) -> bool;
 }
 
 /// A preconditioned Krylov method: its iterations after the preconditioner's setup, and the
@@ -450,6 +455,13 @@ impl LinearSolver for AnySolver {
             AnySolver::BiCgStab(s) => s.invalidate_setup(),
             AnySolver::Gmres(s) => s.invalidate_setup(),
             AnySolver::SparseLu(s) => s.invalidate_setup(),
+        }
+    }
+    fn next_solve_is_fresh(&self) -> bool {
+        match self {
+            AnySolver::BiCgStab(s) => s.next_solve_is_fresh(),
+            AnySolver::Gmres(s) => s.next_solve_is_fresh(),
+            AnySolver::SparseLu(s) => s.next_solve_is_fresh(),
         }
     }
 }

@@ -72,6 +72,21 @@ impl PrecondState {
         self.amg_last_iterations = iterations;
     }
 
+    /// Whether the next `setup` (with `reuse`) will build the preconditioner whole, as a new
+    /// solver's would: nothing kept from earlier solves can then influence later ones.
+    pub(crate) fn next_setup_is_fresh(&self, kind: Preconditioner) -> bool {
+        kind != Preconditioner::Amg || !self.keeps(true)
+    }
+
+    /// Whether a `setup` with `reuse` keeps the AMG hierarchy (the reuse policy).
+    fn keeps(&self, reuse: bool) -> bool {
+        reuse
+            && self.amg_valid
+            && self.amg_age + 1 < AMG_REUSE_MAX_AGE
+            && (self.amg_last_iterations as f64)
+                <= AMG_REUSE_GROWTH * self.amg_fresh_iterations as f64 + 1.0
+    }
+
     /// Whether the last `setup` reused a kept AMG hierarchy.
     pub(crate) fn reused(&self) -> bool {
         !self.amg_fresh
@@ -117,11 +132,7 @@ impl PrecondState {
         match kind {
             Preconditioner::Jacobi => {}
             Preconditioner::Amg => {
-                let keep = reuse
-                    && self.amg_valid
-                    && self.amg_age + 1 < AMG_REUSE_MAX_AGE
-                    && (self.amg_last_iterations as f64)
-                        <= AMG_REUSE_GROWTH * self.amg_fresh_iterations as f64 + 1.0;
+                let keep = self.keeps(reuse);
                 self.amg_fresh = self.amg.setup(a, &self.inv_diag, keep);
                 if self.amg_fresh {
                     self.amg_age = 0;

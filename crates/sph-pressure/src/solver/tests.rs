@@ -671,12 +671,22 @@ sph_core::dim_tests! {
         };
         let params = SolveParams { rel_tolerance: 1e-9, max_iterations: 500 };
         let mut solver = BiCgStab::new(Preconditioner::Amg);
+        // The same solver behind the scenes' wrapper, which must answer as what it wraps.
+        let mut wrapped = AnySolver::new(SolverKind::BicgstabAmg);
         let mut x = vec![0.0; x_star.len()];
+        let mut xw = x.clone();
         let mut kept = Vec::new();
         for k in 0..24 {
             let (m, b) = system(k);
             let sys = CsrSystem { offsets: off, cols, values: &m.values, rhs: &b, border: None };
+            // Whether the coming solve starts afresh is known before it (the run loop stops
+            // for a signal only where it does, so that a resumed run solves alike).
+            let fresh = solver.next_solve_is_fresh();
+            assert_eq!(wrapped.next_solve_is_fresh(), fresh, "solve {k}");
             solver.solve(&sys, &mut x, &params).unwrap();
+            wrapped.solve(&sys, &mut xw, &params).unwrap();
+            assert_eq!(solver.reused_setup(), !fresh, "solve {k}");
+            assert!(x == xw, "solve {k}: the wrapped solver solves otherwise");
             let err = x.iter().zip(&x_star).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
             assert!(err < 1e-5, "solve {k}: max error {err}");
             kept.push(solver.reused_setup());
