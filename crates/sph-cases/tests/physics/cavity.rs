@@ -209,9 +209,9 @@ fn resumed_run_continues_bit_for_bit_d3() {
 }
 
 /// `solver_warm_start = false` starts every pressure solve from zero: the same steps to the
-/// solver's tolerance, with more iterations than from the last step's pressure. With BiCGSTAB
-/// + Jacobi, whose iterations show the start's distance: the default AMG takes 35 iterations
-/// over these five 3D steps from either start.
+/// solver's tolerance, with more iterations than from the last step's pressure. Measured with
+/// BiCGSTAB and Jacobi, whose iterations show the start's distance: the default AMG takes 35
+/// iterations over these five 3D steps from either start.
 fn cold_start_solves_the_same_steps_with_more_iterations<D: Dim>() {
     let dx = if D::DIM == 2 { 0.05 } else { 0.125 };
     let mut totals = Vec::new();
