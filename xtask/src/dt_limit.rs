@@ -10,17 +10,23 @@
 //! trials, so it does not cap `Δt` by itself. The search doubles `Δt` from the scene's value
 //! until a trial is unstable, then bisects five times; the result brackets the limit to within
 //! 1/32 of the first unstable step. A trial has at least five full steps: when `Δt = T/5` is
-//! still stable the table says so (`≥`) instead of a limit. Writes `dt_limit.md` and `dt_limit.csv` into `--out`.
+//! still stable the table says so (`≥`) instead of a limit. A start that is unstable is halved
+//! (at most five times) before the search. Writes `dt_limit.md` and `dt_limit.csv` into `--out`.
+//!
+//! `--scene FILE --end T --dx a,b,c` searches other scenes at several spacings (the search
+//! starting from the scene's Δt scaled with dx): a stability map, drawn as `dt_limit.svg`
+//! (stable Δt against dx, one line per scene and scheme).
 
 use crate::flags::DtLimitArgs;
 use anyhow::Context;
+use dgsph::report::{Series, line_plot};
 use dgsph::session::{self, AppError, exit};
 use sph_cases::reference::References;
 use sph_cases::run::{MemorySink, RunControl};
 use sph_cases::{Scene, registry};
 use sph_integrators::SchemeKind;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::PathBuf;
 
 /// The scenes searched: file, end time of every trial.
 const SCENES: [(&str, f64); 3] = [
@@ -95,102 +101,169 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
     let refs = References::embedded();
     let mut md = String::from(
         "# Largest stable time step\n\n`cargo xtask dt-limit` (see `xtask/src/dt_limit.rs` for \
-         the stability criterion). C = U Δt / h.\n\n| scene | particles | scheme | stable Δt | \
-         C | first unstable Δt | C | why | trials | wall s |\n|---|---:|---|---:|---:|---:|---:|---|---:|---:|\n",
+         the stability criterion). C = U Δt / h.\n\n| scene | dx | particles | scheme | stable Δt | \
+         C | first unstable Δt | C | why | trials | wall s |\n|---|---:|---:|---|---:|---:|---:|---:|---|---:|---:|\n",
     );
     let mut csv =
-        String::from("scene,scheme,dt_stable,cfl_stable,dt_unstable,cfl_unstable,reason\n");
-    for (file, t_end) in SCENES {
-        let path = Path::new(file);
-        let scene = session::load_scene(path)?;
-        let mut scene = args.preset.apply(&scene);
-        scene.t_end = t_end;
-        let name = session::scene_stem(path);
-        let u = scale(&scene, refs);
-        let h = scene.h();
-        let (fluid, walls, _) =
-            registry::particle_counts(&scene, refs).map_err(|e| AppError::Input(e.into()))?;
-        for &scheme in &[
-            SchemeKind::Euler,
-            SchemeKind::PredictorCorrector,
-            SchemeKind::Dg,
-        ] {
-            let t0 = std::time::Instant::now();
-            let mut trials = 0;
-            let mut lo = scene.dt;
-            let (ok, why, _) = trial(&scene, scheme, lo, refs);
-            trials += 1;
-            if !ok {
-                let _ = writeln!(
-                    md,
-                    "| {name} | {} | {} | — | — | {lo:.3e} | {:.3} | {why} (at the scene's Δt) | {trials} | {:.0} |",
-                    fluid + walls,
-                    scheme.name(),
-                    u * lo / h,
-                    t0.elapsed().as_secs_f64()
-                );
-                continue;
+        String::from("scene,dx,scheme,dt_stable,cfl_stable,dt_unstable,cfl_unstable,reason\n");
+    let jobs: Vec<(PathBuf, Option<f64>)> = if args.scene.is_empty() {
+        SCENES
+            .iter()
+            .map(|(f, t)| (PathBuf::from(f), Some(*t)))
+            .collect()
+    } else {
+        args.scene.iter().map(|f| (f.clone(), args.end)).collect()
+    };
+    // Stable Δt against dx, per scene and scheme (the map's lines).
+    let mut map: Vec<Series> = Vec::new();
+    for (path, t_end) in &jobs {
+        let loaded = session::load_scene(path)?;
+        let base = args.preset.apply(&loaded);
+        let spacings = if args.dx.is_empty() {
+            vec![base.dx]
+        } else {
+            args.dx.clone()
+        };
+        let mut lines: Vec<Vec<(f64, f64)>> = vec![Vec::new(); 3];
+        for &dx in &spacings {
+            let mut scene = base.clone();
+            if let Some(t) = t_end {
+                scene.t_end = *t;
             }
-            let mut hi = f64::NAN;
-            let mut reason = String::new();
-            // At least five full steps per trial: beyond that Δt says nothing about stability.
-            let cap = scene.t_end / 5.0;
-            while hi.is_nan() && 2.0 * lo <= cap {
-                let (ok, why, _) = trial(&scene, scheme, 2.0 * lo, refs);
+            scene.dt = base.dt * dx / base.dx;
+            scene.dx = dx;
+            let name = session::scene_stem(path);
+            // `--dx` and `--end` are bad input where the scene would be.
+            let what = format!(
+                "{} with --dx {dx} and --end {}",
+                path.display(),
+                scene.t_end
+            );
+            scene
+                .validate(&what)
+                .and_then(|()| registry::validate(&scene, &what))
+                .map_err(|e| AppError::Input(e.into()))?;
+            let u = scale(&scene, refs);
+            let h = scene.h();
+            let (fluid, walls, _) =
+                registry::particle_counts(&scene, refs).map_err(|e| AppError::Input(e.into()))?;
+            for (line, &scheme) in [
+                SchemeKind::Euler,
+                SchemeKind::PredictorCorrector,
+                SchemeKind::Dg,
+            ]
+            .iter()
+            .enumerate()
+            {
+                let t0 = std::time::Instant::now();
+                let mut trials = 0;
+                let mut lo = scene.dt;
+                let (mut ok, mut why, _) = trial(&scene, scheme, lo, refs);
                 trials += 1;
-                if ok {
-                    lo *= 2.0;
-                } else {
-                    hi = 2.0 * lo;
-                    reason = why;
-                }
-            }
-            if !hi.is_nan() {
                 for _ in 0..5 {
-                    let mid = 0.5 * (lo + hi);
-                    let (ok, why, _) = trial(&scene, scheme, mid, refs);
+                    if ok {
+                        break;
+                    }
+                    lo *= 0.5;
+                    (ok, why, _) = trial(&scene, scheme, lo, refs);
+                    trials += 1;
+                }
+                if !ok {
+                    let _ = writeln!(
+                        md,
+                        "| {name} | {dx} | {} | {} | — | — | {lo:.3e} | {:.3} | {why} (at 1/32 of the scene's Δt) | {trials} | {:.0} |",
+                        fluid + walls,
+                        scheme.name(),
+                        u * lo / h,
+                        t0.elapsed().as_secs_f64()
+                    );
+                    continue;
+                }
+                let mut hi = f64::NAN;
+                let mut reason = String::new();
+                // At least five full steps per trial: beyond that Δt says nothing about stability.
+                let cap = scene.t_end / 5.0;
+                while hi.is_nan() && 2.0 * lo <= cap {
+                    let (ok, why, _) = trial(&scene, scheme, 2.0 * lo, refs);
                     trials += 1;
                     if ok {
-                        lo = mid;
+                        lo *= 2.0;
                     } else {
-                        hi = mid;
+                        hi = 2.0 * lo;
                         reason = why;
                     }
                 }
+                if !hi.is_nan() {
+                    for _ in 0..5 {
+                        let mid = 0.5 * (lo + hi);
+                        let (ok, why, _) = trial(&scene, scheme, mid, refs);
+                        trials += 1;
+                        if ok {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                            reason = why;
+                        }
+                    }
+                }
+                if hi.is_nan() {
+                    reason = format!("stable up to the five-step cap T/5 = {cap:.3e}");
+                }
+                let wall = t0.elapsed().as_secs_f64();
+                dgsph::say!(
+                    "{name} {}: stable Δt {lo:.3e} (C = {:.3}), unstable {hi:.3e}: {reason} [{trials} trials, {wall:.0} s]",
+                    scheme.name(),
+                    u * lo / h
+                );
+                let unstable = if hi.is_nan() {
+                    ("—".to_string(), "—".to_string())
+                } else {
+                    (format!("{hi:.3e}"), format!("{:.3}", u * hi / h))
+                };
+                let _ = writeln!(
+                    md,
+                    "| {name} | {dx} | {} | {} | {lo:.3e} | {:.3} | {} | {} | {} | {trials} | {wall:.0} |",
+                    fluid + walls,
+                    scheme.name(),
+                    u * lo / h,
+                    unstable.0,
+                    unstable.1,
+                    reason.replace('|', "\\|"),
+                );
+                lines[line].push((dx, lo));
+                let _ = writeln!(
+                    csv,
+                    "{name},{dx},{},{lo},{},{hi},{},\"{}\"",
+                    scheme.name(),
+                    u * lo / h,
+                    u * hi / h,
+                    reason.replace('"', "'")
+                );
             }
-            if hi.is_nan() {
-                reason = format!("stable up to the five-step cap T/5 = {cap:.3e}");
-            }
-            let wall = t0.elapsed().as_secs_f64();
-            dgsph::say!(
-                "{name} {}: stable Δt {lo:.3e} (C = {:.3}), unstable {hi:.3e}: {reason} [{trials} trials, {wall:.0} s]",
-                scheme.name(),
-                u * lo / h
-            );
-            let unstable = if hi.is_nan() {
-                ("—".to_string(), "—".to_string())
-            } else {
-                (format!("{hi:.3e}"), format!("{:.3}", u * hi / h))
-            };
-            let _ = writeln!(
-                md,
-                "| {name} | {} | {} | {lo:.3e} | {:.3} | {} | {} | {} | {trials} | {wall:.0} |",
-                fluid + walls,
-                scheme.name(),
-                u * lo / h,
-                unstable.0,
-                unstable.1,
-                reason.replace('|', "\\|"),
-            );
-            let _ = writeln!(
-                csv,
-                "{name},{},{lo},{},{hi},{},\"{}\"",
-                scheme.name(),
-                u * lo / h,
-                u * hi / h,
-                reason.replace('"', "'")
-            );
         }
+        let name = session::scene_stem(path);
+        for (line, scheme) in lines
+            .into_iter()
+            .zip(["euler", "predictor_corrector", "dg"])
+        {
+            map.push(Series::line(format!("{name} {scheme}"), line));
+        }
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))
+        .map_err(AppError::Output)?;
+    if args.dx.len() > 1
+        && line_plot(
+            &args.out.join("dt_limit.svg"),
+            "largest stable time step",
+            "dx",
+            "stable Δt",
+            &map,
+            true,
+        )
+        .map_err(AppError::Output)?
+    {
+        md.push_str("\n![stable Δt against dx](dt_limit.svg)\n");
     }
     std::fs::create_dir_all(&args.out)
         .and_then(|()| dgsph::output::write_atomic(&args.out.join("dt_limit.md"), md.as_bytes()))

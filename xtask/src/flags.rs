@@ -22,7 +22,8 @@ pub enum Command {
     Run(Box<dgsph::cli::RunArgs>),
     /// Rebuild report.md and its figures from an output directory (`dgsph report`).
     Report(dgsph::cli::ReportArgs),
-    /// The largest stable time step of each scheme (drop, Re 400 cavity, dam break).
+    /// The largest stable time step of each scheme (drop, Re 400 cavity, dam break; or the
+    /// scenes given with `--scene`, at the spacings of `--dx`: a stability map).
     DtLimit(DtLimitArgs),
     /// Run a scene N times with its time step changed at round-off and give each result's
     /// mean, spread and standard error over the draws.
@@ -101,6 +102,18 @@ pub struct DtLimitArgs {
     /// `quick` (the scenes' `[quick]` sizes) or `full`.
     #[arg(long, value_enum, default_value = "quick")]
     pub preset: Preset,
+    /// Search these scenes instead of the built-in three (repeatable), each trial to `--end`
+    /// (default: the scene's end time after the preset).
+    #[arg(long)]
+    pub scene: Vec<PathBuf>,
+    /// End time of every trial of the `--scene` scenes.
+    #[arg(long)]
+    pub end: Option<f64>,
+    /// Particle spacings to search each scene at (a stability map: stable Δt against dx),
+    /// comma-separated; default: the scene's own. The search starts from the scene's Δt scaled
+    /// with dx.
+    #[arg(long, value_delimiter = ',')]
+    pub dx: Vec<f64>,
     /// Output directory for dt_limit.md and dt_limit.csv.
     #[arg(long, default_value = "target/dt-limit")]
     pub out: PathBuf,
