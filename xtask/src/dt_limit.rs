@@ -8,7 +8,7 @@
 //! particle escaping the walls), no wall penetration, and speeds bounded by three times the
 //! velocity scale. The displacement limit of blow-up detection is raised to 10 h for these
 //! trials, so it does not cap `Δt` by itself. The search doubles `Δt` from the scene's value
-//! until a trial is unstable, then bisects five times; the result brackets the limit to within
+//! (the last doubling clipped to the cap below) until a trial is unstable, then bisects five times; the result brackets the limit to within
 //! 1/32 of the first unstable step. A trial has at least five full steps: when `Δt = T/5` is
 //! still stable the table says so (`≥`) instead of a limit. A start that is unstable is halved
 //! (at most five times) before the search. Writes `dt_limit.md` and `dt_limit.csv` into `--out`.
@@ -183,13 +183,15 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
                 let mut reason = String::new();
                 // At least five full steps per trial: beyond that Δt says nothing about stability.
                 let cap = scene.t_end / 5.0;
-                while hi.is_nan() && 2.0 * lo <= cap {
-                    let (ok, why, _) = trial(&scene, scheme, 2.0 * lo, refs);
+                // Doubling, the last try at the cap itself.
+                while hi.is_nan() && lo < cap {
+                    let next = (2.0 * lo).min(cap);
+                    let (ok, why, _) = trial(&scene, scheme, next, refs);
                     trials += 1;
                     if ok {
-                        lo *= 2.0;
+                        lo = next;
                     } else {
-                        hi = 2.0 * lo;
+                        hi = next;
                         reason = why;
                     }
                 }
