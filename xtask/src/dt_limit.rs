@@ -7,11 +7,12 @@
 //! reaches the end with no failed step (non-finite values, a solver that does not converge, a
 //! particle escaping the walls), no wall penetration, and speeds bounded by three times the
 //! velocity scale. The displacement limit of blow-up detection is raised to 10 h for these
-//! trials, so it does not cap `Δt` by itself. The search doubles `Δt` from the scene's value
-//! (the last doubling clipped to the cap below) until a trial is unstable, then bisects five times; the result brackets the limit to within
-//! 1/32 of the first unstable step. A trial has at least five full steps: when `Δt = T/5` is
-//! still stable the table says so (`≥`) instead of a limit. A start that is unstable is halved
-//! (at most five times) before the search. Writes `dt_limit.md` and `dt_limit.csv` into `--out`.
+//! trials, so it does not cap `Δt` by itself. A start that is unstable is halved (at most five
+//! times); from a stable one the search doubles `Δt` (the last doubling clipped to the cap
+//! below) until a trial is unstable, then bisects five times: the result brackets the limit to
+//! within 1/32 of the first unstable step. A trial has at least five full steps: when
+//! `Δt = T/5` is still stable the table says so ("stable up to the five-step cap") instead of
+//! giving an unstable step. Writes `dt_limit.md` and `dt_limit.csv` into `--out`.
 //!
 //! `--scene FILE --end T --dx a,b,c` searches other scenes at several spacings (the search
 //! starting from the scene's Δt scaled with dx): a stability map, drawn as `dt_limit.svg`
@@ -35,8 +36,8 @@ const SCENES: [(&str, f64); 3] = [
     ("cases/hard/dam_break.toml", 1.5),
 ];
 
-/// One trial: stable or not, and why not.
-fn trial(scene: &Scene, scheme: SchemeKind, dt: f64, refs: &References) -> (bool, String, f64) {
+/// One trial: stable, or why not.
+fn trial(scene: &Scene, scheme: SchemeKind, dt: f64, refs: &References) -> Result<(), String> {
     let mut s = scene.clone();
     s.dt = dt;
     // A trial is a fixed step: the automatic one would only be bounded by it.
@@ -45,28 +46,80 @@ fn trial(scene: &Scene, scheme: SchemeKind, dt: f64, refs: &References) -> (bool
     s.limits.max_displacement = Some(10.0);
     s.output.sample_every = Some(1);
     let mut sink = MemorySink::default();
-    let t0 = std::time::Instant::now();
-    let run = registry::run_scheme(&s, scheme, refs, RunControl::default(), &mut sink);
-    let wall = t0.elapsed().as_secs_f64();
-    match run {
-        Err(e) => (false, format!("setup: {e}"), wall),
-        Ok(r) => {
-            let get = |k: &str| r.results.get(k).copied().unwrap_or(f64::NAN);
-            if let Some(e) = &r.failure {
-                (false, first_words(&e.to_string()), wall)
-            } else if get("max_wall_penetrations") > 0.0 {
-                (false, "wall penetration".into(), wall)
-            } else if get("max_speed_ratio").is_nan() || get("max_speed_ratio") > 3.0 {
-                (
-                    false,
-                    format!("max |u|/U = {:.2}", get("max_speed_ratio")),
-                    wall,
-                )
-            } else {
-                (true, String::new(), wall)
+    let r = registry::run_scheme(&s, scheme, refs, RunControl::default(), &mut sink)
+        .map_err(|e| format!("setup: {e}"))?;
+    let get = |k: &str| r.results.get(k).copied().unwrap_or(f64::NAN);
+    if let Some(e) = &r.failure {
+        Err(first_words(&e.to_string()))
+    } else if get("max_wall_penetrations") > 0.0 {
+        Err("wall penetration".into())
+    } else if get("max_speed_ratio").is_nan() || get("max_speed_ratio") > 3.0 {
+        Err(format!("max |u|/U = {:.2}", get("max_speed_ratio")))
+    } else {
+        Ok(())
+    }
+}
+
+/// What one scheme's search found: `lo` the largest stable step (the last unstable start
+/// when no start was stable), `hi` the smallest unstable one (NaN when none was met).
+struct Bracket {
+    lo: f64,
+    hi: f64,
+    /// Why `hi` (or the last start) was unstable.
+    reason: String,
+    trials: usize,
+    /// Whether a start (the scene's step or one of its five halvings) was stable.
+    found: bool,
+}
+
+/// The search of the module docs: halve an unstable `start` up to five times, double (the last
+/// try at `cap` itself) until a step is unstable, then bisect five times. `test` is one trial.
+fn bracket(start: f64, cap: f64, mut test: impl FnMut(f64) -> Result<(), String>) -> Bracket {
+    let mut b = Bracket {
+        lo: start,
+        hi: f64::NAN,
+        reason: String::new(),
+        trials: 0,
+        found: false,
+    };
+    let mut try_at = |b: &mut Bracket, dt: f64| {
+        b.trials += 1;
+        match test(dt) {
+            Ok(()) => {
+                b.lo = dt;
+                true
+            }
+            Err(why) => {
+                b.hi = dt;
+                b.reason = why;
+                false
             }
         }
+    };
+    let mut dt = start;
+    for _ in 0..6 {
+        if try_at(&mut b, dt) {
+            b.found = true;
+            break;
+        }
+        dt *= 0.5;
     }
+    if !b.found {
+        b.lo = b.hi;
+        return b;
+    }
+    // A start that failed is the first unstable step already.
+    while b.hi.is_nan() && b.lo < cap {
+        let next = (2.0 * b.lo).min(cap);
+        try_at(&mut b, next);
+    }
+    if !b.hi.is_nan() {
+        for _ in 0..5 {
+            let mid = 0.5 * (b.lo + b.hi);
+            try_at(&mut b, mid);
+        }
+    }
+    b
 }
 
 fn first_words(s: &str) -> String {
@@ -156,57 +209,25 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
             .enumerate()
             {
                 let t0 = std::time::Instant::now();
-                let mut trials = 0;
-                let mut lo = scene.dt;
-                let (mut ok, mut why, _) = trial(&scene, scheme, lo, refs);
-                trials += 1;
-                for _ in 0..5 {
-                    if ok {
-                        break;
-                    }
-                    lo *= 0.5;
-                    (ok, why, _) = trial(&scene, scheme, lo, refs);
-                    trials += 1;
-                }
-                if !ok {
+                // At least five full steps per trial: beyond that Δt says nothing about stability.
+                let cap = scene.t_end / 5.0;
+                let Bracket {
+                    lo,
+                    hi,
+                    mut reason,
+                    trials,
+                    found,
+                } = bracket(scene.dt, cap, |dt| trial(&scene, scheme, dt, refs));
+                if !found {
                     let _ = writeln!(
                         md,
-                        "| {name} | {dx} | {} | {} | — | — | {lo:.3e} | {:.3} | {why} (at 1/32 of the scene's Δt) | {trials} | {:.0} |",
+                        "| {name} | {dx} | {} | {} | — | — | {lo:.3e} | {:.3} | {reason} (at 1/32 of the scene's Δt) | {trials} | {:.0} |",
                         fluid + walls,
                         scheme.name(),
                         u * lo / h,
                         t0.elapsed().as_secs_f64()
                     );
                     continue;
-                }
-                let mut hi = f64::NAN;
-                let mut reason = String::new();
-                // At least five full steps per trial: beyond that Δt says nothing about stability.
-                let cap = scene.t_end / 5.0;
-                // Doubling, the last try at the cap itself.
-                while hi.is_nan() && lo < cap {
-                    let next = (2.0 * lo).min(cap);
-                    let (ok, why, _) = trial(&scene, scheme, next, refs);
-                    trials += 1;
-                    if ok {
-                        lo = next;
-                    } else {
-                        hi = next;
-                        reason = why;
-                    }
-                }
-                if !hi.is_nan() {
-                    for _ in 0..5 {
-                        let mid = 0.5 * (lo + hi);
-                        let (ok, why, _) = trial(&scene, scheme, mid, refs);
-                        trials += 1;
-                        if ok {
-                            lo = mid;
-                        } else {
-                            hi = mid;
-                            reason = why;
-                        }
-                    }
                 }
                 if hi.is_nan() {
                     reason = format!("stable up to the five-step cap T/5 = {cap:.3e}");
@@ -274,4 +295,53 @@ pub fn run(args: &DtLimitArgs) -> Result<u8, AppError> {
         .map_err(AppError::Output)?;
     dgsph::say!("{}", args.out.join("dt_limit.md").display());
     Ok(exit::OK)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::bracket;
+
+    /// A synthetic stability limit: steps up to `limit` are stable.
+    fn limited(limit: f64) -> impl FnMut(f64) -> Result<(), String> {
+        move |dt| {
+            if dt <= limit {
+                Ok(())
+            } else {
+                Err(format!("{dt} > {limit}"))
+            }
+        }
+    }
+
+    #[test]
+    fn the_search_brackets_the_limit_from_a_stable_and_an_unstable_start() {
+        for (start, trials) in [(0.1, 8), (1.0, 8)] {
+            let b = bracket(start, 100.0, limited(0.37));
+            assert!(b.found);
+            assert!(b.lo <= 0.37 && b.hi > 0.37, "{start}: {} {}", b.lo, b.hi);
+            // Five bisections of a doubling interval: within 1/32 of the unstable step.
+            assert!(
+                b.hi - b.lo <= b.hi / 32.0 + 1e-15,
+                "{start}: {} {}",
+                b.lo,
+                b.hi
+            );
+            assert_eq!(b.reason, format!("{} > 0.37", b.hi));
+            // From 0.1: 0.1, 0.2, 0.4, five bisections. From 1.0: 1.0, 0.5, 0.25, five
+            // bisections (0.5, already unstable, is not tried again).
+            assert_eq!(b.trials, trials, "{start}");
+        }
+    }
+
+    #[test]
+    fn the_search_tries_the_cap_and_gives_up_after_five_halvings() {
+        let b = bracket(0.3, 1.0, limited(5.0));
+        assert!(b.found && b.hi.is_nan());
+        assert_eq!(b.lo, 1.0, "the cap itself is tried");
+        assert_eq!(b.trials, 3, "0.3, 0.6, 1.0");
+        let b = bracket(1.0, 10.0, limited(0.001));
+        assert!(!b.found);
+        assert_eq!(b.trials, 6);
+        assert_eq!(b.lo, 1.0 / 32.0, "the last start tried");
+        assert_eq!(b.reason, format!("{} > 0.001", 1.0 / 32.0));
+    }
 }
