@@ -67,13 +67,14 @@ pub fn centroid<D: Dim>(sim: &Simulation<D>) -> D::Vector {
 }
 
 /// The results of a flow run besides the run loop's.
-pub const RESULTS: [&str; 21] = [
+pub const RESULTS: [&str; 22] = [
     "centroid_x",
     "centroid_y",
     "centroid_z",
     "isolated_particles_max",
     "kinetic_energy_change",
     "ke_decay_error_max",
+    "speed_decay_error_max",
     "hydrostatic_error",
     "hydrostatic_error_max",
     "isolated_fraction_max",
@@ -198,6 +199,10 @@ pub struct FlowCase {
     hydro: Option<([f64; 3], f64, f64, f64)>,
     isolated_max: f64,
     ke_error_max: f64,
+    /// Initial largest fluid speed (the Taylor–Green amplitude).
+    speed0: f64,
+    /// Largest |max speed / (speed₀ exp(−8π²νt/L²)) − 1| (Taylor–Green fields only).
+    speed_error_max: f64,
     ke_end: f64,
     hydro_error: f64,
     hydro_error_max: f64,
@@ -264,6 +269,8 @@ impl FlowCase {
             hydro: None,
             isolated_max: 0.0,
             ke_error_max: f64::NAN,
+            speed0: f64::NAN,
+            speed_error_max: f64::NAN,
             ke_end: f64::NAN,
             hydro_error: f64::NAN,
             hydro_error_max: f64::NAN,
@@ -491,6 +498,8 @@ impl<D: Dim> Case<D> for FlowCase {
         hydro,
         isolated_max,
         ke_error_max,
+        speed0,
+        speed_error_max,
         ke_end,
         hydro_error,
         hydro_error_max,
@@ -568,6 +577,7 @@ impl<D: Dim> Case<D> for FlowCase {
 
     fn start(&mut self, sim: &Simulation<D>) -> Result<(), CaseError> {
         self.ke0 = kinetic_energy(sim);
+        self.speed0 = sim.max_speed();
         let nf = sim.fluid_len();
         self.fluid = nf;
         self.mass = sim.particles.masses[..nf].iter().sum();
@@ -673,6 +683,11 @@ impl<D: Dim> Case<D> for FlowCase {
             .ke_rate
             .map_or(f64::NAN, |r| ke / (self.ke0 * (-r * sim.t).exp()) - 1.0);
         self.ke_error_max = self.ke_error_max.max(ke_error.abs());
+        // The largest speed decays at half the energy's rate.
+        let speed_error = self.ke_rate.map_or(f64::NAN, |r| {
+            sim.max_speed() / (self.speed0 * (-0.5 * r * sim.t).exp()) - 1.0
+        });
+        self.speed_error_max = self.speed_error_max.max(speed_error.abs());
         // Not at the initial record: the initial pressure is the reference itself.
         let hydro =
             self.hydro
@@ -797,6 +812,7 @@ impl<D: Dim> Case<D> for FlowCase {
                 },
             ),
             ("ke_decay_error_max", self.ke_error_max),
+            ("speed_decay_error_max", self.speed_error_max),
             ("hydrostatic_error", self.hydro_error),
             ("hydrostatic_error_max", self.hydro_error_max),
             (

@@ -490,6 +490,35 @@ mod tests {
     }
 
     #[test]
+    fn the_re_3200_misprint_is_left_out_of_the_deviation() {
+        // Ghia's Re 3200 u(0.4531) = −0.86636 (between −0.24427 and −0.04272) is a misprint: a
+        // profile through the neighbouring values deviates from the table only there, and the
+        // deviation must not see it.
+        use crate::cavity::{Profiles, ghia_deviation};
+        let r = References::embedded();
+        let u = r.ghia_u_vertical(3200.0);
+        let at = |y: f64| u.iter().find(|(c, _)| (c - y).abs() < 1e-6).unwrap().1;
+        assert_eq!(at(0.4531), -0.86636, "the table's printed value");
+        let smooth = 0.5 * (at(0.2813) + at(0.5));
+        let profiles = Profiles {
+            u_vertical: u
+                .iter()
+                .map(|&(y, g)| (y, if (y - 0.4531).abs() < 1e-6 { smooth } else { g }, g))
+                .collect(),
+            v_horizontal: r
+                .ghia_v_horizontal(3200.0)
+                .into_iter()
+                .map(|(x, g)| (x, g, g))
+                .collect(),
+        };
+        let d = ghia_deviation(&profiles, 3200.0).unwrap();
+        assert_eq!((d.u_rms, d.u_max), (0.0, 0.0), "{d:?}");
+        // At another Reynolds number the same row counts.
+        let d = ghia_deviation(&profiles, 5000.0).unwrap();
+        assert!(d.u_max > 0.7, "{d:?}");
+    }
+
+    #[test]
     fn malformed_tables_name_file_and_line() {
         let bad = EMBEDDED[4].1.replacen("Re100", "R100", 1);
         let e = References::parse(|f| (f == "ghia_v_horizontal.csv").then(|| bad.clone()))

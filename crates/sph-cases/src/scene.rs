@@ -35,7 +35,7 @@ use crate::blocks::{
 use serde::{Deserialize, Serialize};
 use sph_integrators::{
     AutoTimeStep, Diagnostics, DtBound, Effects, FreeSurface, Limits, PeriodicAxes, SchemeKind,
-    ShiftScale, ShiftVelocity, Shifting, SimConfig, Viscosity, WallCondition,
+    ShiftScale, ShiftVelocity, Shifting, SimConfig, Viscosity, ViscousOperator, WallCondition,
 };
 use sph_kernels::KernelKind;
 use sph_operators::HessianForm;
@@ -163,12 +163,24 @@ pub struct ShiftingSpec {
     pub velocity_correction: Option<ShiftVelocity>,
 }
 
+/// `[effects] viscosity = { nu = ..., operator = ... }`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ViscositySpec {
+    /// Kinematic viscosity `ν`.
+    pub nu: f64,
+    /// The discrete Laplacian: `"corrected"` (Morris' with its leading error removed in the
+    /// bulk; the default of `flow` and `dam_break` scenes) or `"morris"` (the paper's; the
+    /// default of the paper's cases).
+    pub operator: Option<ViscousOperator>,
+}
+
 /// Explicit effects a scene declares (`[effects]`). Absent ones are not computed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EffectsSpec {
     /// Laminar viscosity `{ nu = ... }` (the cavity derives it from `reynolds` instead).
-    pub viscosity: Option<Viscosity>,
+    pub viscosity: Option<ViscositySpec>,
     /// Body-force acceleration `[gx, gy, gz]`.
     pub gravity: Option<[f64; 3]>,
     /// Particle shifting `{ coefficient = 2.0 }`.
@@ -483,7 +495,14 @@ impl Scene {
         config.reorder_every = self.reorder_every.unwrap_or(DEFAULT_REORDER_EVERY);
         config.dg_hessian = self.dg_hessian.into();
         config.effects = Effects {
-            viscosity: self.effects.viscosity,
+            viscosity: self.effects.viscosity.map(|v| Viscosity {
+                nu: v.nu,
+                operator: v.operator.unwrap_or(if flow {
+                    ViscousOperator::Corrected
+                } else {
+                    ViscousOperator::Morris
+                }),
+            }),
             gravity: self.effects.gravity,
             shifting: self.effects.shifting.map(|s| Shifting {
                 coefficient: s.coefficient,

@@ -44,6 +44,33 @@ impl FreeSurface {
 pub struct Viscosity {
     /// Kinematic viscosity `ν`.
     pub nu: f64,
+    /// The discrete `∇²u`.
+    #[serde(default)]
+    pub operator: ViscousOperator,
+}
+
+impl Viscosity {
+    /// Viscosity `ν` with Morris' operator (the paper's).
+    pub fn morris(nu: f64) -> Self {
+        Self {
+            nu,
+            operator: ViscousOperator::Morris,
+        }
+    }
+}
+
+/// The discrete Laplacian of the viscous term.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ViscousOperator {
+    /// Morris et al. (1997), Eq. (8): second order, `L = ∇² + c∇⁴ + O(h⁴)`
+    /// (`sph_operators::morris_error_coefficient`).
+    #[default]
+    Morris,
+    /// Morris' operator with its leading error removed, `L − c L²`
+    /// (`sph_operators::viscous_correction`), at fluid particles whose neighbourhood holds
+    /// neither a wall nor a free-surface particle (Morris' elsewhere).
+    Corrected,
 }
 
 /// Fickian particle shifting after Lind et al. (2012), J. Comput. Phys. 231, 1499, Eqs. (7)–(9):

@@ -34,7 +34,7 @@ mod walls;
 pub use checkpoint::{Checkpoint, RestoreError};
 pub use config::{
     Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, ShiftScale, ShiftVelocity, Shifting,
-    SimConfig, Viscosity,
+    SimConfig, Viscosity, ViscousOperator,
 };
 pub use error::{COLLAPSE_FRACTION, StepError};
 pub use frame::Frame;

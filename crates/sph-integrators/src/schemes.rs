@@ -4,13 +4,16 @@ use crate::projection::{Equation, det_f_stats, first_non_finite, prepare, projec
 use crate::report::{Phase, PhaseTimes};
 use crate::simulation::{Buffers, Engine, engine_context};
 use crate::{
-    EnergyBudget, ShiftScale, ShiftVelocity, Shifting, Simulation, StepError, StepReport, Walls,
+    EnergyBudget, ShiftScale, ShiftVelocity, Shifting, Simulation, StepError, StepReport,
+    ViscousOperator, Walls,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sph_core::Dim;
 use sph_core::{ParticleSet, VectorOps};
-use sph_operators::{shifting_gradients, viscous_acceleration};
+use sph_operators::{
+    morris_error_coefficient, shifting_gradients, viscous_acceleration, viscous_correction,
+};
 use std::time::Instant;
 
 /// One time-update scheme.
@@ -134,8 +137,28 @@ fn intermediate_velocity<D: Dim>(
             w.no_slip_velocity(&ctx, &p.velocities, &mut b.u_visc[nf..]);
         }
         // The fluid's rows only: the walls keep their prescribed velocity.
-        let acc = &mut b.acc[..nf];
-        viscous_acceleration(&ctx, &p.masses, &p.densities, v.nu, &b.u_visc, acc);
+        match v.operator {
+            ViscousOperator::Morris => {
+                let acc = &mut b.acc[..nf];
+                viscous_acceleration(&ctx, &p.masses, &p.densities, v.nu, &b.u_visc, acc);
+            }
+            ViscousOperator::Corrected => {
+                // Every particle's uncorrected value (the walls' stay zero and are never read:
+                // a particle with a wall neighbour is not corrected).
+                b.visc_acc.fill(D::Vector::ZERO);
+                let a = &mut b.visc_acc[..nf];
+                viscous_acceleration(&ctx, &p.masses, &p.densities, v.nu, &b.u_visc, a);
+                let c = morris_error_coefficient::<D, _>(&e.kernel);
+                let (nl, surface) = (&e.neighbors, &e.dirichlet);
+                let interior = |i: usize| {
+                    nl.row(i)
+                        .iter()
+                        .all(|&j| (j as usize) < nf && !surface[j as usize])
+                };
+                let acc = &mut b.acc[..nf];
+                viscous_correction(&ctx, &p.masses, &p.densities, c, &b.visc_acc, interior, acc);
+            }
+        }
         phases.add(Phase::Viscosity, clock);
     }
     if let Some(g) = fx.gravity {

@@ -179,6 +179,9 @@ pub(crate) struct Buffers<D: Dim> {
     /// Explicit acceleration (viscosity, gravity) and the velocity the viscous term reads.
     pub(crate) acc: Vec<D::Vector>,
     pub(crate) u_visc: Vec<D::Vector>,
+    /// The uncorrected viscous acceleration of every particle (walls: zero), for
+    /// [`ViscousOperator::Corrected`](crate::ViscousOperator::Corrected).
+    pub(crate) visc_acc: Vec<D::Vector>,
     /// Shifting: ∇C and ∇uⁿ⁺¹.
     pub(crate) grad_c: Vec<D::Vector>,
     pub(crate) grad_u: Vec<D::Matrix>,
@@ -260,6 +263,7 @@ impl<D: Dim> Simulation<D> {
             flags: Vec::new(),
             acc: Vec::new(),
             u_visc: Vec::new(),
+            visc_acc: Vec::new(),
             grad_c: Vec::new(),
             grad_u: Vec::new(),
             u_shift: Vec::new(),
@@ -475,6 +479,7 @@ impl<D: Dim> Simulation<D> {
         if fx.viscosity.is_some() || fx.gravity.is_some() {
             b.acc.resize(n, D::Vector::ZERO);
             b.u_visc.resize(n, D::Vector::ZERO);
+            b.visc_acc.resize(n, D::Vector::ZERO);
         }
         if fx.shifting.is_some() {
             b.grad_c.resize(n, D::Vector::ZERO);

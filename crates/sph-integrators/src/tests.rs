@@ -131,7 +131,7 @@ sph_core::dim_tests! {
             assert_eq!(sim.step, 0);
             // With viscosity the error gives the step's viscous number ν Δt / h² (0 without).
             let (p, mut cfg) = drop::<D>();
-            cfg.effects.viscosity = Some(crate::Viscosity { nu: 0.05 });
+            cfg.effects.viscosity = Some(crate::Viscosity::morris(0.05));
             let mut viscous = Simulation::new(p, cfg).unwrap();
             let err = Scheme::new(kind).step(&mut viscous, 0.01).unwrap_err();
             match &err {
@@ -183,7 +183,7 @@ sph_core::dim_tests! {
     /// projection's free-surface flags, and ∇·r must be left at xⁿ as a rebuild would leave it.
     fn predictor_corrector_det_f_reuses_the_lists_at_x_n<D>() {
         let (p, mut cfg) = drop::<D>();
-        cfg.effects.viscosity = Some(Viscosity { nu: 0.1 });
+        cfg.effects.viscosity = Some(Viscosity::morris(0.1));
         let mut sim = Simulation::new(p, cfg).unwrap();
         let mut scheme = Scheme::new(SchemeKind::PredictorCorrector);
         for _ in 0..2 {
@@ -541,11 +541,12 @@ sph_core::dim_tests! {
     /// forces (gravity, viscosity), projection and regularisation (shifting with its velocity
     /// correction) add up to `KEⁿ⁺¹ − KEⁿ`, for every scheme and every velocity correction.
     fn energy_budget_adds_up_to_the_change_of_kinetic_energy<D>() {
-        for correction in [ShiftVelocity::Taylor, ShiftVelocity::Limited, ShiftVelocity::None] {
+        let operators = [ViscousOperator::Morris, ViscousOperator::Corrected];
+        for (n, correction) in [ShiftVelocity::Taylor, ShiftVelocity::Limited, ShiftVelocity::None].into_iter().enumerate() {
             for kind in SchemeKind::ALL {
                 let (p, mut cfg) = drop::<D>();
                 cfg.effects = Effects {
-                    viscosity: Some(Viscosity { nu: 0.01 }),
+                    viscosity: Some(Viscosity { nu: 0.01, operator: operators[n % 2] }),
                     gravity: Some([0.0, -9.81, 0.0]),
                     shifting: Some(Shifting {
                         coefficient: 2.0,

@@ -72,6 +72,9 @@ impl<D: Dim> Kernel<D> for AnyKernel<D> {
     fn support_radius(&self) -> f64 {
         crate::with_kernel!(self, k => k.support_radius())
     }
+    fn second_moment(&self) -> f64 {
+        crate::with_kernel!(self, k => k.second_moment())
+    }
     #[inline(always)]
     fn w(&self, r: f64) -> f64 {
         crate::with_kernel!(self, k => k.w(r))

@@ -23,6 +23,12 @@ impl Shape for Cubic {
             _ => 1.0 / PI,
         }
     }
+    fn second_moment(dim: usize) -> f64 {
+        match dim {
+            2 => 31.0 / 49.0,
+            _ => 9.0 / 10.0,
+        }
+    }
     #[inline(always)]
     fn f(q: f64) -> f64 {
         if q < 1.0 {

@@ -9,6 +9,9 @@ pub trait Kernel<D: Dim>: Send + Sync + fmt::Debug + Clone {
     fn h(&self) -> f64;
     /// Radius beyond which `W` and `∇W` vanish (`κ h`).
     fn support_radius(&self) -> f64;
+    /// `∫ r² W(r) dV` over the support: `M₂ h²` with the shape's dimensionless
+    /// [`second_moment`](crate::Shape::second_moment).
+    fn second_moment(&self) -> f64;
     /// `W(r)`.
     fn w(&self, r: f64) -> f64;
     /// `dW/dr (r)`; zero at `r = 0` and beyond the support.

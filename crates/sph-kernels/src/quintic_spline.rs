@@ -31,6 +31,14 @@ impl Shape for Quintic {
             _ => 1.0 / (120.0 * PI),
         }
     }
+    fn second_moment(dim: usize) -> f64 {
+        // ∫ q² σ_D f dV, exact rationals of the piecewise polynomial (checked by quadrature in
+        // the tests).
+        match dim {
+            2 => 2771.0 / 2868.0,
+            _ => 7.0 / 5.0,
+        }
+    }
     #[inline(always)]
     fn f(q: f64) -> f64 {
         let (t3, t2, t1) = (pos(3.0 - q), pos(2.0 - q), pos(1.0 - q));

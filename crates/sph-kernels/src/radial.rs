@@ -9,6 +9,10 @@ pub trait Shape: Copy + Send + Sync + fmt::Debug + 'static {
     const SUPPORT: f64;
     /// Normalisation `σ_D` for dimension `dim` (2 or 3), such that `∫ W dV = 1`.
     fn sigma(dim: usize) -> f64;
+    /// The second moment `M₂ = ∫ q² σ_D f(q) d^D q` for dimension `dim` (2 or 3), in units of
+    /// `h²`: the width of the kernel that sets the leading error of its Laplacian (see
+    /// `sph_operators::morris_error_coefficient`).
+    fn second_moment(dim: usize) -> f64;
     /// `f(q)` for `0 ≤ q < SUPPORT`.
     fn f(q: f64) -> f64;
     /// `df/dq` for `0 ≤ q < SUPPORT`.
@@ -73,6 +77,9 @@ impl<D: Dim, S: Shape> Kernel<D> for Radial<D, S> {
     #[inline(always)]
     fn support_radius(&self) -> f64 {
         self.support
+    }
+    fn second_moment(&self) -> f64 {
+        S::second_moment(D::DIM) * self.h * self.h
     }
     #[inline(always)]
     fn w(&self, r: f64) -> f64 {

@@ -37,6 +37,11 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 /// `∫ W dV` by radial Gauss–Legendre quadrature, 12 points on each unit-`q` interval between the
 /// spline knots (exact for the polynomial pieces, degree ≤ 23).
 fn integrate<D: Dim>(k: &impl Kernel<D>) -> f64 {
+    integrate_moment::<D>(k, 0)
+}
+
+/// `∫ r^power W dV` by the same quadrature.
+fn integrate_moment<D: Dim>(k: &impl Kernel<D>, power: i32) -> f64 {
     let gl = gauss_legendre(12);
     let h = k.h();
     let pieces = (k.support_radius() / h).round() as usize;
@@ -52,7 +57,7 @@ fn integrate<D: Dim>(k: &impl Kernel<D>) -> f64 {
         let (a, b) = (p as f64 * h, (p + 1) as f64 * h);
         for &(x, wgt) in &gl {
             let r = 0.5 * (a + b) + 0.5 * (b - a) * x;
-            sum += 0.5 * (b - a) * wgt * shell(r) * k.w(r);
+            sum += 0.5 * (b - a) * wgt * shell(r) * r.powi(power) * k.w(r);
         }
     }
     sum
@@ -100,6 +105,21 @@ sph_core::dim_tests! {
             for k in kernels::<D>(h) {
                 let integral = integrate::<D>(&k);
                 assert!((integral - 1.0).abs() < 1e-8, "{k:?}: ∫W dV = {integral}");
+            }
+        }
+    }
+
+    fn second_moments_match_quadrature<D>() {
+        // The shapes' exact M₂ (rationals worked out from the polynomials) against ∫ r² W dV by
+        // quadrature: a wrong constant sets a wrong viscous correction.
+        for h in [0.013, 1.0, 7.5] {
+            for k in kernels::<D>(h) {
+                let quadrature = integrate_moment::<D>(&k, 2);
+                let exact = k.second_moment();
+                assert!(
+                    (quadrature / exact - 1.0).abs() < 1e-10,
+                    "{k:?}: ∫ r² W dV = {quadrature}, second_moment() = {exact}"
+                );
             }
         }
     }

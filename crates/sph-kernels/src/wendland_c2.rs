@@ -22,6 +22,12 @@ impl Shape for Wendland {
             _ => 21.0 / (16.0 * PI),
         }
     }
+    fn second_moment(dim: usize) -> f64 {
+        match dim {
+            2 => 5.0 / 9.0,
+            _ => 4.0 / 5.0,
+        }
+    }
     #[inline(always)]
     fn f(q: f64) -> f64 {
         (1.0 - 0.5 * q).powi(4) * (2.0 * q + 1.0)

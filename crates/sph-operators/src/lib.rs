@@ -27,6 +27,7 @@
 //! | [`free_surface_indicator`] | ∇·r = Σ V_j (x_j − x_i)·∇W_ij | Nair & Tomar 2014 |
 //! | [`free_surface_scan`] | no neighbour in the umbrella region outside `x_i` | Marrone et al. 2010 |
 //! | [`viscous_acceleration`] | Σ m_j (μ_i+μ_j)/(ρ_iρ_j) F_ij (u_i − u_j) (Morris 1997) | Eq. 1 viscous term |
+//! | [`viscous_correction`] | a_i − c (L a)_i, c = M₂/(4D) ([`morris_error_coefficient`]): ν∇²u to O(h⁴) | Eq. 1 viscous term, fourth order |
 //!
 //! with `F_ij = x_ij·∇W_ij / (r_ij² + (0.01h)²)` and `x_ij = x_i − x_j`. Optional kernel-gradient
 //! renormalisation ([`correction_matrices`], `∇̃W_ij = L_i ∇W_ij`) makes the gradient, divergence
@@ -98,7 +99,7 @@ pub use hessian::{HessianForm, hessian, hessian_stencil_eq25, hessian_stencil_eq
 pub use laplacian::laplacian;
 pub use quadratic_fit::{QuadraticFitStats, hessian_quadratic_fit, hessian_stencil_fit};
 pub use shifting::{concentration_gradient, shifting_gradients};
-pub use viscosity::viscous_acceleration;
+pub use viscosity::{morris_error_coefficient, viscous_acceleration, viscous_correction};
 
 /// The dimension abstraction (re-export of `sph-core`).
 pub use sph_core as core;

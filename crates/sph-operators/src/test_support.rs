@@ -19,11 +19,17 @@ impl<D: Dim> Lattice<D> {
     /// Lattice with `h = h_over_dx · dx`, each particle moved by up to `jitter · dx` per axis
     /// (seeded), and wide enough that the centre region has full kernel support.
     pub fn new(kind: KernelKind, h_over_dx: f64, jitter: f64) -> Self {
+        // In 3D keep the block small (the centre plus one support on each side, plus 2).
+        Self::with_margin(kind, h_over_dx, jitter, if D::DIM == 2 { 9 } else { 3 })
+    }
+
+    /// As [`Lattice::new`], with `2 reach + margin` particles per side (`reach`: the support in
+    /// spacings), for operators applied twice (the centre needs two supports of full support).
+    pub fn with_margin(kind: KernelKind, h_over_dx: f64, jitter: f64, margin: usize) -> Self {
         let dx = 0.1;
         let kernel = kind.build::<D>(h_over_dx * dx);
         let reach = (kernel.support_radius() / dx).ceil() as usize;
-        // In 3D keep the block small (the centre plus one support on each side, plus 2).
-        let per_side = 2 * reach + if D::DIM == 2 { 9 } else { 3 };
+        let per_side = 2 * reach + margin;
         let mut positions = lattice::<D>(per_side, dx);
         let mut rng = SplitMix64::new(42);
         for x in positions.iter_mut() {

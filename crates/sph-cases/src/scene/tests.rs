@@ -283,3 +283,34 @@ fn resume_differences_name_the_physics_keys() {
     other.cavity.as_mut().unwrap().wall_condition = WallCondition::Reflection;
     assert_eq!(other.resume_differences(&s), vec!["cavity".to_string()]);
 }
+
+#[test]
+fn viscous_operator_defaults_to_corrected_in_flow_scenes_and_morris_in_the_papers() {
+    let op = |text: &str| {
+        Scene::parse("s", text)
+            .unwrap()
+            .sim_config()
+            .effects
+            .viscosity
+            .map(|v| v.operator)
+    };
+    let viscous = |text: &str, spec: &str| {
+        text.replace("[effects]", &format!("[effects]\nviscosity = {{ {spec} }}"))
+    };
+    let flow = viscous(TANK, "nu = 0.01");
+    assert_eq!(op(&flow), Some(ViscousOperator::Corrected));
+    assert_eq!(
+        op(&viscous(TANK, "nu = 0.01, operator = \"morris\"")),
+        Some(ViscousOperator::Morris)
+    );
+    let paper = format!("{GOOD}\n[effects]\nviscosity = {{ nu = 0.01 }}");
+    assert_eq!(op(&paper), Some(ViscousOperator::Morris));
+    let chosen =
+        format!("{GOOD}\n[effects]\nviscosity = {{ nu = 0.01, operator = \"corrected\" }}");
+    assert_eq!(op(&chosen), Some(ViscousOperator::Corrected));
+    // An unknown operator is an error naming the key's value.
+    let e = Scene::parse("s", &viscous(TANK, "nu = 0.01, operator = \"cubic\""))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cubic") && e.contains("corrected"), "{e}");
+}

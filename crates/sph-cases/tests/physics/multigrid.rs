@@ -10,7 +10,7 @@ use sph_integrators::SchemeKind;
 fn iterations(dx: f64) -> f64 {
     let text = include_str!("../../../../cases/hard/taylor_green.toml")
         .replacen("dx = 0.02", &format!("dx = {dx}"), 1)
-        .replacen("dt = 2e-3", "dt = 1e-4", 1)
+        .replacen("dt = 5e-4", "dt = 1e-4", 1)
         .replacen(
             "t_end = 2.0",
             "t_end = 3e-4\nsolver = \"bicgstab_amg\"\nsolver_tolerance = 1e-6",
