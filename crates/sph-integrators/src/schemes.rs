@@ -143,10 +143,10 @@ fn intermediate_velocity<D: Dim>(
                 viscous_acceleration(&ctx, &p.masses, &p.densities, v.nu, &b.u_visc, acc);
             }
             ViscousOperator::Corrected => {
-                // Every particle's uncorrected value (the walls' stay zero and are never read:
-                // a particle with a wall neighbour is not corrected).
-                b.visc_acc.fill(D::Vector::ZERO);
+                // The fluid's uncorrected values (the walls' slots are never read: a particle
+                // with a wall neighbour is not corrected).
                 let a = &mut b.visc_acc[..nf];
+                a.fill(D::Vector::ZERO);
                 viscous_acceleration(&ctx, &p.masses, &p.densities, v.nu, &b.u_visc, a);
                 let c = morris_error_coefficient::<D, _>(&e.kernel);
                 let (nl, surface) = (&e.neighbors, &e.dirichlet);

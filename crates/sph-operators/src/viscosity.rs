@@ -1,7 +1,7 @@
 //! Laminar viscosity (Morris, Fox & Zhu 1997), the explicit viscous term of the momentum
 //! equation (paper Eq. 1, `∇·(2μD)/ρ` for constant μ and ∇·u = 0).
 
-use crate::context::{SphContext, laplacian_regulariser};
+use crate::context::{SphContext, gather, laplacian_regulariser};
 use sph_core::{Dim, VectorOps};
 use sph_kernels::Kernel;
 
@@ -107,17 +107,13 @@ pub fn viscous_correction<D: Dim, K: Kernel<D>>(
 ) {
     assert!(masses.len() == ctx.len() && densities.len() == ctx.len() && a.len() == ctx.len());
     assert!(out.len() <= ctx.len(), "at most one output per particle");
-    use rayon::prelude::*;
-    out.par_iter_mut()
-        .enumerate()
-        .with_min_len(crate::context::MIN_LEN)
-        .for_each(|(i, o)| {
-            *o = if corrected(i) {
-                a[i] - morris_sum(ctx, masses, densities, 1.0, a, i) * c
-            } else {
-                a[i]
-            };
-        });
+    gather(out, |i| {
+        if corrected(i) {
+            a[i] - morris_sum(ctx, masses, densities, 1.0, a, i) * c
+        } else {
+            a[i]
+        }
+    });
 }
 
 #[cfg(test)]
