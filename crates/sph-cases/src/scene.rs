@@ -997,8 +997,9 @@ impl Validator<'_> {
             return self.bad(
                 "free_surface.extrapolate",
                 "needs the renormalised difference gradient (pressure.gradient = \"difference\", \
-                 pressure.renormalise = true): the surface pressures are no longer 0, and the \
-                 symmetric form would add 2 p_i Σ V_j ∇W_ij where the kernel support is cut",
+                 pressure.renormalise = true): with the symmetric gradient the Robin rows keep a \
+                 still tank's level but put the dam-break front 14 % ahead and add energy at \
+                 impacts (docs/hard-cases.md, \"Flow numerics\")",
             );
         }
         if s.solver_tolerance
