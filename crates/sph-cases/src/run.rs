@@ -104,6 +104,11 @@ pub fn common_columns() -> Vec<Column> {
             "depth of the deepest fluid particle in wall material",
         ),
         Column::new(
+            "left_domain",
+            "",
+            "fluid particles that left the domain over an open wall's rim (held there, at rest)",
+        ),
+        Column::new(
             "free_surface_particles",
             "",
             "Dirichlet (free-surface) particles of the last projection",
@@ -319,6 +324,7 @@ fn common_values<D: Dim>(
         vmax,
         sim.wall_penetrations() as f64,
         sim.wall_intrusion(),
+        sim.left_domain() as f64,
         r(&|r| r.free_surface_particles as f64),
         r(&|r| r.solve.iterations as f64),
         r(&|r| r.solve.rel_residual),

@@ -456,6 +456,15 @@ fn projection_passes<D: Dim>(
         shift(&sim.engine, bufs, x_eval, sh, dt);
         phases.add(Phase::Shifting, clock);
     }
+    if let Some(w) = &sim.engine.walls {
+        hold_departed(
+            w,
+            sim.engine.periodic,
+            &p.positions[..nf],
+            &mut sim.buf.disp[..nf],
+            &mut sim.buf.u_new[..nf],
+        );
+    }
     let (max_displacement, deepest) =
         check_displacements(&sim.engine, p, &sim.buf.disp, dt, step, t)?;
     // The guard acts only on a particle whose end point lies in wall material (depth > 0); the
@@ -583,7 +592,10 @@ fn check_displacements<D: Dim>(
     if let Some(w) = &e.walls {
         let deepest = first_largest(p.positions[..nf].par_iter().zip(&disp[..nf]).map(|(x, d)| {
             let y = *x + *d;
-            w.depth(e.periodic.map_or(y, |per| per.wrap(y)))
+            let y = e.periodic.map_or(y, |per| per.wrap(y));
+            // An end point beyond the wall layers was reached over an open rim (one step is
+            // shorter than the layers are thick): the particle left the domain.
+            if w.beyond(y) { 0.0 } else { w.depth(y) }
         }));
         if deepest.1 > w.thickness {
             return Err(StepError::Escaped {
@@ -597,6 +609,36 @@ fn check_displacements<D: Dim>(
         deepest_depth = deepest.1;
     }
     Ok((value, deepest_depth))
+}
+
+/// Fluid particles that have left the domain over an open container's rim
+/// ([`Walls::beyond`](crate::Walls::beyond): outside every container, past its wall layers)
+/// are out of the flow: one already there stays where it is, at rest; one whose step ends
+/// there ends it at rest. Spray thrown out of an open tank is thus neither taken for a particle
+/// that passed through a wall nor left to fall for ever (its speed would set the automatic
+/// step). The count is in every record (`left_domain`).
+fn hold_departed<D: Dim>(
+    w: &crate::Walls<D>,
+    periodic: Option<sph_core::Periodic<D>>,
+    x: &[D::Vector],
+    disp: &mut [D::Vector],
+    u_new: &mut [D::Vector],
+) {
+    disp.par_iter_mut()
+        .zip(u_new.par_iter_mut())
+        .zip(x.par_iter())
+        .with_min_len(1024)
+        .for_each(|((d, u), &x)| {
+            if w.beyond(x) {
+                *d = D::Vector::ZERO;
+                *u = D::Vector::ZERO;
+            } else {
+                let y = x + *d;
+                if w.beyond(periodic.map_or(y, |per| per.wrap(y))) {
+                    *u = D::Vector::ZERO;
+                }
+            }
+        });
 }
 
 /// The first index holding the largest value above 0 and that value, `(0, 0.0)` if none is
@@ -636,7 +678,7 @@ fn guard_walls<D: Dim>(
         .map(|((disp, u_new), &x)| {
             let y = x + *disp;
             let y = e.periodic.map_or(y, |per| per.wrap(y));
-            if w.depth(y) > 0.0 && w.depth(x) == 0.0 {
+            if w.depth(y) > 0.0 && w.depth(x) == 0.0 && !w.beyond(y) {
                 let d = *disp;
                 let cut = w.limit_shift(x, d);
                 *u_new = D::Vector::from_fn(|k| {

@@ -313,6 +313,15 @@ impl<D: Dim> Simulation<D> {
             .map_or(0, |w| w.penetrations(&self.particles.positions))
     }
 
+    /// Fluid particles that have left the domain over an open container's rim and are held
+    /// there ([`Walls::beyond`]; 0 without walls).
+    pub fn left_domain(&self) -> usize {
+        self.engine
+            .walls
+            .as_ref()
+            .map_or(0, |w| w.left_domain(&self.particles.positions))
+    }
+
     /// Depth of the furthest fluid particle outside the wall container (0 without walls or
     /// when every fluid particle is inside), see [`Walls::max_intrusion`].
     pub fn wall_intrusion(&self) -> f64 {

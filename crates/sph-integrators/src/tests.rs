@@ -526,6 +526,63 @@ sph_core::dim_tests! {
     }
 }
 
+sph_core::dim_tests! {
+    /// Spray thrown over an open tank's rim leaves the domain: the test drop in a container
+    /// `[-1, 6]^D` open along the last axis (walls 0.5 thick), one of its particles past the
+    /// left wall's layers below the rim (x₀ = −2, moving at 3 per unit time), one just above the
+    /// rim beside the tank and falling below it in this step. The step does not fail (the
+    /// second would end 1 deep in "wall material"), neither is counted as a penetration, the
+    /// first stays where it is and both end at rest.
+    fn spray_over_an_open_rim_leaves_the_domain_and_is_held<D>() {
+        let (mut p, cfg) = drop::<D>();
+        let first = p.len();
+        let far = [D::Vector::from_fn(|_| 5.0), D::Vector::from_fn(|c| if c == 0 { 5.2 } else { 5.0 })];
+        for x in far {
+            p.positions.push(x);
+            p.velocities.push(D::Vector::ZERO);
+            p.masses.push(p.masses[0]);
+            p.densities.push(p.densities[0]);
+            p.pressures.push(0.0);
+        }
+        let top = D::DIM - 1;
+        let out = D::Vector::from_fn(|c| if c == 0 { -2.0 } else { 0.0 });
+        p.positions[0] = out;
+        p.velocities[0] = D::Vector::from_fn(|c| if c == 0 { 3.0 } else { 0.0 });
+        p.positions[1] = D::Vector::from_fn(|c| if c == 0 { -2.0 } else if c == top { 6.0005 } else { 0.0 });
+        p.velocities[1] = D::Vector::from_fn(|c| if c == top { -10.0 } else { 0.0 });
+        let mut geometry = crate::WallGeometry::closed_box(
+            D::Vector::from_fn(|_| -1.0),
+            D::Vector::from_fn(|_| 6.0),
+        );
+        geometry.boxes[0].open[top][1] = true;
+        let walls = Walls::<D> {
+            model: WallModel::DummyParticles,
+            condition: WallCondition::Continuation,
+            first,
+            velocity: vec![D::Vector::ZERO; 2],
+            mirror: vec![D::Vector::from_fn(|_| -1.0); 2],
+            inward: vec![D::Vector::from_fn(|c| if c == 0 { 1.0 } else { 0.0 }); 2],
+            separation: false,
+            geometry,
+            thickness: 0.5,
+        };
+        let mut sim = Simulation::with_walls(p, cfg, walls).unwrap();
+        for kind in [SchemeKind::Euler, SchemeKind::PredictorCorrector, SchemeKind::Dg] {
+            let r = Scheme::new(kind).step(&mut sim, 1e-4).unwrap();
+            assert_eq!(r.wall_penetrations, 0, "{}", D::NAME);
+        }
+        let x = &sim.particles.positions;
+        let slot = |id: usize| sim.order.slots[id] as usize;
+        assert_eq!(x[slot(0)], out, "{}", D::NAME);
+        assert!(x[slot(1)].get(top) < 6.0, "{}", D::NAME);
+        for id in [0, 1] {
+            assert_eq!(sim.particles.velocities[slot(id)], D::Vector::ZERO, "{}", D::NAME);
+        }
+        assert_eq!(sim.left_domain(), 2, "{}", D::NAME);
+        assert_eq!(sim.wall_penetrations(), 0, "{}", D::NAME);
+    }
+}
+
 fn kinetic<D: Dim>(sim: &Simulation<D>) -> f64 {
     let n = sim.fluid_len();
     let p = &sim.particles;

@@ -145,6 +145,21 @@ impl<D: Dim> WallGeometry<D> {
             .fold(container, f64::max)
     }
 
+    /// Whether `x` lies outside every container, further than `thickness` past one of its closed
+    /// faces: beyond the wall layers, where a particle can only have arrived over an open
+    /// face's rim (one step moves a particle less than the layers are thick). False without
+    /// containers. Solids do not enter.
+    pub fn beyond_walls(&self, x: D::Vector, thickness: f64) -> bool {
+        let mut any = false;
+        for b in self.containers() {
+            if b.container_depth(x) <= thickness {
+                return false;
+            }
+            any = true;
+        }
+        any
+    }
+
     /// A shift `dr` of the fluid particle at `x`, shortened so it can bring the particle closer
     /// to a wall but never across one:
     ///
@@ -253,6 +268,27 @@ mod tests {
             let s = g.limit_shift(x, at::<D>([0.05, -0.05, 0.0]));
             assert_eq!(g.depth(x + s), 0.0, "{s:?}");
             assert!(s.length() > 0.0);
+        }
+
+        fn beyond_walls_is_outside_every_container_past_its_layers<D>() {
+            // The open tank of the test above, walls 0.15 thick, with the solid step.
+            let mut tank = WallBox::<D>::closed_container(at::<D>([0.0; 3]), at::<D>([4.0, 3.0, 1.0]));
+            tank.open[1][1] = true;
+            let step = WallBox::<D>::solid(at::<D>([2.0, 0.0, 0.0]), at::<D>([2.5, 0.5, 1.0]));
+            let g = WallGeometry { boxes: vec![tank, step] };
+            let (t, z) = (0.15, 0.5);
+            // In the fluid, in the wall layers, above the open top beside the tank, inside the
+            // solid: not beyond.
+            for x in [[1.0, 1.0, z], [-0.1, 1.0, z], [1.0, -0.15, z], [-0.5, 3.5, z], [2.25, 0.25, z]] {
+                assert!(!g.beyond_walls(at::<D>(x), t), "{x:?}");
+            }
+            // Past the layers beside or below the tank: beyond (spray that came over the rim).
+            for x in [[-0.5, 2.9, z], [4.2, 1.0, z], [1.0, -0.2, z]] {
+                assert!(g.beyond_walls(at::<D>(x), t), "{x:?}");
+            }
+            // Without a container nothing is beyond.
+            let solid_only = WallGeometry { boxes: vec![step] };
+            assert!(!solid_only.beyond_walls(at::<D>([-5.0, -5.0, z]), t));
         }
 
         fn union_of_containers_is_the_fluid_region<D>() {

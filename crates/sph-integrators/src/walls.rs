@@ -125,24 +125,43 @@ impl<D: Dim> Walls<D> {
         self.geometry.depth(x)
     }
 
-    /// Number of fluid particles in wall material (each one has crossed a wall).
+    /// Whether `x` has left the domain: outside every container, beyond its wall layers
+    /// ([`WallGeometry::beyond_walls`]). A fluid particle gets there only over the rim of an
+    /// open face (spray thrown out of an open tank); the schemes then hold it where it left,
+    /// at rest, out of the flow (see [`Walls::left_domain`]).
+    pub fn beyond(&self, x: D::Vector) -> bool {
+        self.geometry.beyond_walls(x, self.thickness)
+    }
+
+    /// Number of fluid particles that have left the domain over an open rim ([`Walls::beyond`]).
+    pub fn left_domain(&self, positions: &[D::Vector]) -> usize {
+        positions[..self.first]
+            .par_iter()
+            .with_min_len(4096)
+            .filter(|x| self.beyond(**x))
+            .count()
+    }
+
+    /// Number of fluid particles in wall material (each one has crossed a wall); particles
+    /// that left the domain over an open rim are not in wall material.
     pub fn penetrations(&self, positions: &[D::Vector]) -> usize {
         // A count and (below) a maximum: exact in any order, so in parallel.
         positions[..self.first]
             .par_iter()
             .with_min_len(4096)
-            .filter(|x| self.depth(**x) > 0.0)
+            .filter(|x| self.depth(**x) > 0.0 && !self.beyond(**x))
             .count()
     }
 
     /// How deep the deepest fluid particle lies in wall material (0 when none does). Tells a
     /// particle in the half-spacing gap between the wall line and the first wall layer
-    /// (depth < Δp/2) from one that has passed the wall particles.
+    /// (depth < Δp/2) from one that has passed the wall particles. Particles that left the
+    /// domain do not count.
     pub fn max_intrusion(&self, positions: &[D::Vector]) -> f64 {
         positions[..self.first]
             .par_iter()
             .with_min_len(4096)
-            .map(|x| self.depth(*x))
+            .map(|x| if self.beyond(*x) { 0.0 } else { self.depth(*x) })
             .reduce(|| 0.0, f64::max)
     }
 
