@@ -392,7 +392,8 @@ fn relaxation_packs_a_jittered_tank_before_the_clock<D>() {
 sph_core::dim_tests! {
 /// The automatic time step (the flow scenes' default): a collapsing column starts at rest, so
 /// its first step is the body-force limit `0.25 √(h/g)`; once it moves, steps are the
-/// advective limit `0.2 h / max|u|` of the speed at the step's start (the previous record's,
+/// advective limit `C_u h / max|u|` (`AutoTimeStep::default().advective`) of the speed at the
+/// step's start (the previous record's,
 /// one record per step), never above the scene's `dt`; the last step ends at `t_end`. The same
 /// steps to the bit on 1 and 3 threads; with `auto = false` every step is `dt`.
 fn the_automatic_step_is_the_binding_limit<D>() {
@@ -437,7 +438,7 @@ fn the_automatic_step_is_the_binding_limit<D>() {
     for k in 1..dt.len() {
         assert!(dt[k] <= 0.05, "step {k}: {}", dt[k]);
         if bound[k] == 1.0 {
-            let limit = 0.2 * h / speed[k - 1];
+            let limit = sph_integrators::AutoTimeStep::default().advective * h / speed[k - 1];
             assert!(dt[k] <= limit * (1.0 + 1e-14), "step {k}: {} > {limit}", dt[k]);
             if k + 2 < dt.len() {
                 assert!((dt[k] - limit).abs() <= 1e-14 * limit, "step {k}: {} ≠ {limit}", dt[k]);
