@@ -148,11 +148,13 @@ impl<D: Dim> WallGeometry<D> {
     /// Whether `x` lies outside every container, further than `thickness` past one of its closed
     /// faces: beyond the wall layers, where a particle can only have arrived over an open
     /// face's rim (one step moves a particle less than the layers are thick). False without
-    /// containers. Solids do not enter.
+    /// containers, and when a container has no open face (nothing can leave a closed box: a
+    /// particle out there has passed through a wall). Solids do not enter.
     pub fn beyond_walls(&self, x: D::Vector, thickness: f64) -> bool {
         let mut any = false;
         for b in self.containers() {
-            if b.container_depth(x) <= thickness {
+            let open = b.open.iter().flatten().any(|o| *o);
+            if !open || b.container_depth(x) <= thickness {
                 return false;
             }
             any = true;
@@ -286,9 +288,11 @@ mod tests {
             for x in [[-0.5, 2.9, z], [4.2, 1.0, z], [1.0, -0.2, z]] {
                 assert!(g.beyond_walls(at::<D>(x), t), "{x:?}");
             }
-            // Without a container nothing is beyond.
+            // Without a container nothing is beyond, nor outside a closed box.
             let solid_only = WallGeometry { boxes: vec![step] };
             assert!(!solid_only.beyond_walls(at::<D>([-5.0, -5.0, z]), t));
+            let closed = WallGeometry::<D>::closed_box(at::<D>([0.0; 3]), at::<D>([1.0; 3]));
+            assert!(!closed.beyond_walls(at::<D>([-5.0, 0.5, 0.5]), t));
         }
 
         fn union_of_containers_is_the_fluid_region<D>() {
