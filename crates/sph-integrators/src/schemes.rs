@@ -595,7 +595,7 @@ fn check_displacements<D: Dim>(
             let y = e.periodic.map_or(y, |per| per.wrap(y));
             // An end point beyond the wall layers was reached over an open rim (one step is
             // shorter than the layers are thick): the particle left the domain.
-            if w.beyond(y) { 0.0 } else { w.depth(y) }
+            w.material_depth(y)
         }));
         if deepest.1 > w.thickness {
             return Err(StepError::Escaped {
@@ -678,7 +678,7 @@ fn guard_walls<D: Dim>(
         .map(|((disp, u_new), &x)| {
             let y = x + *disp;
             let y = e.periodic.map_or(y, |per| per.wrap(y));
-            if w.depth(y) > 0.0 && w.depth(x) == 0.0 && !w.beyond(y) {
+            if w.material_depth(y) > 0.0 && w.depth(x) == 0.0 {
                 let d = *disp;
                 let cut = w.limit_shift(x, d);
                 *u_new = D::Vector::from_fn(|k| {

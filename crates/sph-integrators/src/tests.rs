@@ -483,6 +483,36 @@ fn first_largest_is_the_sequential_scan() {
     }
 }
 
+/// The test drop with two wall particles far from it (no neighbours in it) behind `geometry`
+/// (walls 0.5 thick): a simulation whose walls act only through their geometry.
+fn drop_in<D: Dim>(geometry: crate::WallGeometry<D>) -> Simulation<D> {
+    let (mut p, cfg) = drop::<D>();
+    let first = p.len();
+    let far = [
+        D::Vector::from_fn(|_| 5.0),
+        D::Vector::from_fn(|c| if c == 0 { 5.2 } else { 5.0 }),
+    ];
+    for x in far {
+        p.positions.push(x);
+        p.velocities.push(D::Vector::ZERO);
+        p.masses.push(p.masses[0]);
+        p.densities.push(p.densities[0]);
+        p.pressures.push(0.0);
+    }
+    let walls = Walls::<D> {
+        model: WallModel::DummyParticles,
+        condition: WallCondition::Continuation,
+        first,
+        velocity: vec![D::Vector::ZERO; 2],
+        mirror: vec![D::Vector::from_fn(|_| -1.0); 2],
+        inward: vec![D::Vector::from_fn(|c| if c == 0 { 1.0 } else { 0.0 }); 2],
+        separation: false,
+        geometry,
+        thickness: 0.5,
+    };
+    Simulation::with_walls(p, cfg, walls).unwrap()
+}
+
 sph_core::dim_tests! {
     /// A step's report counts the fluid particles in wall material after it, as
     /// [`Simulation::wall_penetrations`] does: the test drop in a container whose lower-x wall
@@ -491,32 +521,11 @@ sph_core::dim_tests! {
     /// with the line beyond the drop, none.
     fn a_step_reports_the_particles_left_in_wall_material<D>() {
         for (lo, column) in [(-0.22, true), (-0.35, false)] {
-            let (mut p, cfg) = drop::<D>();
-            let first = p.len();
-            // Two wall particles far from the drop (no neighbours in it).
-            let far = [D::Vector::from_fn(|_| 5.0), D::Vector::from_fn(|c| if c == 0 { 5.2 } else { 5.0 })];
-            for x in far {
-                p.positions.push(x);
-                p.velocities.push(D::Vector::ZERO);
-                p.masses.push(p.masses[0]);
-                p.densities.push(p.densities[0]);
-                p.pressures.push(0.0);
-            }
-            let walls = Walls::<D> {
-                model: WallModel::DummyParticles,
-                condition: WallCondition::Continuation,
-                first,
-                velocity: vec![D::Vector::ZERO; 2],
-                mirror: vec![D::Vector::from_fn(|_| -1.0); 2],
-                inward: vec![D::Vector::from_fn(|c| if c == 0 { 1.0 } else { 0.0 }); 2],
-                separation: false,
-                geometry: crate::WallGeometry::closed_box(
-                    D::Vector::from_fn(|c| if c == 0 { lo } else { -1.0 }),
-                    D::Vector::from_fn(|_| 6.0),
-                ),
-                thickness: 0.5,
-            };
-            let mut sim = Simulation::with_walls(p, cfg, walls).unwrap();
+            let mut sim = drop_in::<D>(crate::WallGeometry::closed_box(
+                D::Vector::from_fn(|c| if c == 0 { lo } else { -1.0 }),
+                D::Vector::from_fn(|_| 6.0),
+            ));
+            let first = sim.fluid_len();
             let r = Scheme::new(SchemeKind::Dg).step(&mut sim, 1e-4).unwrap();
             let want = sim.particles.positions[..first].iter().filter(|x| x.get(0) < lo).count();
             assert_eq!(want > 0, column, "{}: lo = {lo}: {want}", D::NAME);
@@ -534,39 +543,19 @@ sph_core::dim_tests! {
     /// second would end 1 deep in "wall material"), neither is counted as a penetration, the
     /// first stays where it is and both end at rest.
     fn spray_over_an_open_rim_leaves_the_domain_and_is_held<D>() {
-        let (mut p, cfg) = drop::<D>();
-        let first = p.len();
-        let far = [D::Vector::from_fn(|_| 5.0), D::Vector::from_fn(|c| if c == 0 { 5.2 } else { 5.0 })];
-        for x in far {
-            p.positions.push(x);
-            p.velocities.push(D::Vector::ZERO);
-            p.masses.push(p.masses[0]);
-            p.densities.push(p.densities[0]);
-            p.pressures.push(0.0);
-        }
         let top = D::DIM - 1;
-        let out = D::Vector::from_fn(|c| if c == 0 { -2.0 } else { 0.0 });
-        p.positions[0] = out;
-        p.velocities[0] = D::Vector::from_fn(|c| if c == 0 { 3.0 } else { 0.0 });
-        p.positions[1] = D::Vector::from_fn(|c| if c == 0 { -2.0 } else if c == top { 6.0005 } else { 0.0 });
-        p.velocities[1] = D::Vector::from_fn(|c| if c == top { -10.0 } else { 0.0 });
         let mut geometry = crate::WallGeometry::closed_box(
             D::Vector::from_fn(|_| -1.0),
             D::Vector::from_fn(|_| 6.0),
         );
         geometry.boxes[0].open[top][1] = true;
-        let walls = Walls::<D> {
-            model: WallModel::DummyParticles,
-            condition: WallCondition::Continuation,
-            first,
-            velocity: vec![D::Vector::ZERO; 2],
-            mirror: vec![D::Vector::from_fn(|_| -1.0); 2],
-            inward: vec![D::Vector::from_fn(|c| if c == 0 { 1.0 } else { 0.0 }); 2],
-            separation: false,
-            geometry,
-            thickness: 0.5,
-        };
-        let mut sim = Simulation::with_walls(p, cfg, walls).unwrap();
+        let mut sim = drop_in::<D>(geometry);
+        let p = &mut sim.particles;
+        let out = D::Vector::from_fn(|c| if c == 0 { -2.0 } else { 0.0 });
+        p.positions[0] = out;
+        p.velocities[0] = D::Vector::from_fn(|c| if c == 0 { 3.0 } else { 0.0 });
+        p.positions[1] = D::Vector::from_fn(|c| if c == 0 { -2.0 } else if c == top { 6.0005 } else { 0.0 });
+        p.velocities[1] = D::Vector::from_fn(|c| if c == top { -10.0 } else { 0.0 });
         for kind in [SchemeKind::Euler, SchemeKind::PredictorCorrector, SchemeKind::Dg] {
             let r = Scheme::new(kind).step(&mut sim, 1e-4).unwrap();
             assert_eq!(r.wall_penetrations, 0, "{}", D::NAME);

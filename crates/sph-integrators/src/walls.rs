@@ -133,6 +133,13 @@ impl<D: Dim> Walls<D> {
         self.geometry.beyond_walls(x, self.thickness)
     }
 
+    /// How deep `x` lies in wall material, 0 for a point that has left the domain
+    /// ([`Walls::beyond`]): what the penetration count, the intrusion depth, the blow-up test
+    /// and the guard read.
+    pub fn material_depth(&self, x: D::Vector) -> f64 {
+        if self.beyond(x) { 0.0 } else { self.depth(x) }
+    }
+
     /// Number of fluid particles that have left the domain over an open rim ([`Walls::beyond`]).
     pub fn left_domain(&self, positions: &[D::Vector]) -> usize {
         positions[..self.first]
@@ -149,7 +156,7 @@ impl<D: Dim> Walls<D> {
         positions[..self.first]
             .par_iter()
             .with_min_len(4096)
-            .filter(|x| self.depth(**x) > 0.0 && !self.beyond(**x))
+            .filter(|x| self.material_depth(**x) > 0.0)
             .count()
     }
 
@@ -161,7 +168,7 @@ impl<D: Dim> Walls<D> {
         positions[..self.first]
             .par_iter()
             .with_min_len(4096)
-            .map(|x| if self.beyond(*x) { 0.0 } else { self.depth(*x) })
+            .map(|x| self.material_depth(*x))
             .reduce(|| 0.0, f64::max)
     }
 
