@@ -307,6 +307,12 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
             sph_operators::HessianForm::QuadraticFit => "quadratic_fit",
         }
     );
+    if config.density_relaxation > 0.0 {
+        crate::say!(
+            "  density     relaxed towards the lattice's by {} of its error per step",
+            config.density_relaxation
+        );
+    }
     crate::say!(
         "  solver      {} (tolerance {:e})",
         scene.solver.name(),

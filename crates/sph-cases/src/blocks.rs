@@ -376,4 +376,8 @@ pub struct PressureSpec {
     /// hydrostatic pressure is a discrete solution on a disordered particle set. Needs
     /// `renormalise`. Default false.
     pub consistent_laplacian: Option<bool>,
+    /// Density relaxation `α` in [0, 1] (Asai et al. 2012): the projection pulls each
+    /// particle's summation density back towards the lattice's by the fraction `α` of its
+    /// error per step (away from free surfaces). Default 0 (off) for every case.
+    pub density_relaxation: Option<f64>,
 }

@@ -487,6 +487,7 @@ impl Scene {
         };
         config.renormalise = self.pressure.renormalise.unwrap_or(!flow);
         config.consistent_laplacian = self.pressure.consistent_laplacian.unwrap_or(false);
+        config.density_relaxation = self.pressure.density_relaxation.unwrap_or(0.0);
         config.solver = self.solver;
         if let Some(tol) = self.solver_tolerance {
             config.solve.rel_tolerance = tol;
@@ -983,6 +984,14 @@ impl Validator<'_> {
                     format!("must be in (0, {d}), got {th}"),
                 );
             }
+        }
+        if let Some(a) = s.pressure.density_relaxation
+            && !(0.0..=1.0).contains(&a)
+        {
+            return self.bad(
+                "pressure.density_relaxation",
+                format!("must be in [0, 1] (a fraction of the density error per step), got {a}"),
+            );
         }
         let c = s.sim_config();
         if c.consistent_laplacian && !c.renormalise {

@@ -206,6 +206,16 @@ pub struct SimConfig {
     /// `sph_pressure::assemble_ppe`). A hydrostatic pressure is then an exact discrete solution
     /// of a disordered particle set; needs `renormalise`. Default `false` (the paper's operators).
     pub consistent_laplacian: bool,
+    /// Density-invariance relaxation `α` (Asai et al. 2012, J. Appl. Math. 2012, 139583): the
+    /// projection's target divergence becomes `α e_i / Δt` instead of 0, with `e_i` the
+    /// particle's summation-density excess over a perfect lattice
+    /// ([`kernel_sum_excess`](sph_operators::kernel_sum_excess)), so particles packed closer
+    /// than their volumes stand for are pushed apart (and spread ones drawn together) by the
+    /// fraction `α` of the error per step, and the volume the velocity divergence alone lets
+    /// drift is pulled back. Only where no free-surface particle is in the support (there the
+    /// sum measures the cut support). `0` (the default): off. Not a default of any scene: its
+    /// measured costs are in docs/hard-cases.md.
+    pub density_relaxation: f64,
     /// Linear solver. Default BiCGSTAB + AMG.
     pub solver: SolverKind,
     /// Solver tolerances.
@@ -243,6 +253,7 @@ impl SimConfig {
             renormalise: true,
             dg_hessian: HessianForm::Eq25,
             consistent_laplacian: false,
+            density_relaxation: 0.0,
             solver: SolverKind::BicgstabAmg,
             solve: SolveParams::default(),
             warm_start: true,

@@ -7,13 +7,14 @@
 use crate::report::{Phase, PhaseTimes};
 use crate::simulation::{Engine, engine_context};
 use crate::{StepError, report::DetFStats};
+use rayon::prelude::*;
 use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
 use sph_neighbors::NeighborSearch;
 use sph_operators::{
     SphContext, correction_matrices, deformation_gradient, divergence, free_surface_indicator,
     free_surface_scan, grad_factors, grad_factors_and_values, grad_factors_from_squared_distances,
-    gradient, invariants, velocity_gradient,
+    gradient, invariants, kernel_sum_excess, velocity_gradient,
 };
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_surface_rows,
@@ -188,6 +189,15 @@ pub(crate) fn project<D: Dim>(
     match equation {
         Equation::Ppe => {
             divergence(&ctx, u_star, l, &mut e.source[..nf]);
+            // Target divergence α e_i / Δt (density relaxation).
+            relax_density(
+                &ctx,
+                e.config.density_relaxation / dt,
+                &e.dirichlet,
+                &mut e.surface_band,
+                &mut e.excess,
+                &mut e.source[..nf],
+            );
             phases.add(Phase::Source, clock);
             let clock = Instant::now();
             // Masses from volumes and densities: m_j = ρ_j V_j.
@@ -217,6 +227,15 @@ pub(crate) fn project<D: Dim>(
                 *s = dt * (inv.i1 + dt * (inv.i2 + dt * inv.i3));
                 *a = D::Matrix::IDENTITY + *a * dt;
             }
+            // Target det A − 1 = α e_i (density relaxation).
+            relax_density(
+                &ctx,
+                e.config.density_relaxation,
+                &e.dirichlet,
+                &mut e.surface_band,
+                &mut e.excess,
+                &mut e.source[..nf],
+            );
             phases.add(Phase::Source, clock);
             let clock = Instant::now();
             hessian_fallbacks = assemble_dg(
@@ -325,6 +344,36 @@ pub(crate) fn project<D: Dim>(
         gauge_multiplier: e.gauge.last_multiplier,
         hessian_fallbacks,
     })
+}
+
+/// Density relaxation (`SimConfig::density_relaxation`, Asai et al. 2012): subtracts `rate · e_i`
+/// from each fluid particle's source (`source.len()` particles), `e_i` its kernel-sum excess over
+/// a perfect lattice of the first particle's volume (a scene's particles share one spacing).
+/// With `rate = α/Δt` the projection's target is `∇·u_i = α e_i / Δt`, with `rate = α` DG's is
+/// `det A_i − 1 = α e_i`: by continuity the summation density then moves back towards the
+/// lattice's by the fraction `α` of its error per step. Particles with a free-surface particle
+/// (`dirichlet`) in their support keep their source. `rate = 0`: nothing is done.
+fn relax_density<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    rate: f64,
+    dirichlet: &[bool],
+    band: &mut [bool],
+    excess: &mut [f64],
+    source: &mut [f64],
+) {
+    let nf = source.len();
+    if rate <= 0.0 || nf == 0 {
+        return;
+    }
+    band[..nf]
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(256)
+        .for_each(|(i, b)| *b = ctx.neighbors_of(i).any(|j| dirichlet[j]));
+    kernel_sum_excess(ctx, ctx.volumes[0], band, &mut excess[..nf]);
+    for (s, e) in source.iter_mut().zip(&excess[..nf]) {
+        *s -= rate * e;
+    }
 }
 
 /// det F statistics of the displacement `disp` from configuration `x` (neighbour lists,

@@ -102,6 +102,10 @@ pub(crate) struct Engine<D: Dim> {
     /// All `false`: the flags the assembly gets when the surface rows are Robin rows.
     pub(crate) no_dirichlet: Vec<bool>,
     pub(crate) source: Vec<f64>,
+    /// Density relaxation: each fluid particle's kernel-sum excess, and whether a free-surface
+    /// particle is in its support (then it is not relaxed).
+    pub(crate) excess: Vec<f64>,
+    pub(crate) surface_band: Vec<bool>,
     pub(crate) a: Vec<D::Matrix>,
     pub(crate) rhs: Vec<f64>,
     pub(crate) matrix: CsrMatrix,
@@ -232,6 +236,8 @@ impl<D: Dim> Simulation<D> {
             dirichlet: Vec::new(),
             no_dirichlet: Vec::new(),
             source: Vec::new(),
+            excess: Vec::new(),
+            surface_band: Vec::new(),
             a: Vec::new(),
             rhs: Vec::new(),
             matrix: CsrMatrix::default(),
@@ -468,6 +474,10 @@ impl<D: Dim> Simulation<D> {
         e.dirichlet.resize(n, false);
         e.no_dirichlet.resize(n, false);
         e.source.resize(n, 0.0);
+        if e.config.density_relaxation > 0.0 {
+            e.excess.resize(n, 0.0);
+            e.surface_band.resize(n, false);
+        }
         e.a.resize(n, D::Matrix::IDENTITY);
         e.rhs.resize(n, 0.0);
         e.grad_p.resize(n, D::Vector::ZERO);

@@ -624,3 +624,58 @@ sph_core::dim_tests! {
         }
     }
 }
+
+/// A ball of radius 0.3 at rest on a lattice of spacing `scale · dx` whose particles carry the
+/// volume `dx^D` (dx = 0.05): `scale < 1` is a fluid packed closer than its volumes stand for.
+fn ball_at_rest<D: Dim>(scale: f64, relaxation: f64) -> Simulation<D> {
+    let dx = 0.05;
+    let n = 7i64;
+    let mut pts = Vec::new();
+    let zr = if D::DIM == 3 { n } else { 0 };
+    for k in -zr..=zr {
+        for j in -n..=n {
+            for i in -n..=n {
+                let idx = [i, j, k];
+                let x = D::Vector::from_fn(|c| idx[c] as f64 * dx);
+                if x.length() <= 0.3 {
+                    pts.push(x * scale);
+                }
+            }
+        }
+    }
+    let p = ParticleSet::<D>::from_positions(pts, dx.powi(D::DIM as i32), 1.0);
+    let mut cfg = SimConfig::new(KernelKind::WendlandC2, 1.3 * dx);
+    cfg.free_surface = Some(FreeSurface::default_for(D::DIM));
+    cfg.density_relaxation = relaxation;
+    Simulation::new(p, cfg).unwrap()
+}
+
+sph_core::dim_tests! {
+    /// Density relaxation: a ball packed 5 % closer per axis than its volumes stand for is
+    /// pushed apart (every scheme; no force acts, so without the relaxation it stays at rest),
+    /// by a velocity linear in α, while a ball on its own lattice stays at rest.
+    fn density_relaxation_pushes_a_compressed_ball_apart<D>() {
+        let dt = 1e-3;
+        for kind in SchemeKind::ALL {
+            let step = |scale: f64, alpha: f64| {
+                let mut sim = ball_at_rest::<D>(scale, alpha);
+                Scheme::new(kind).step(&mut sim, dt).unwrap();
+                let x = sim.particles.positions.clone();
+                let u = sim.particles.velocities.clone();
+                (x, u)
+            };
+            let largest = |u: &[D::Vector]| u.iter().map(|v| v.length()).fold(0.0, f64::max);
+            let (_, still) = step(0.95, 0.0);
+            assert!(largest(&still) == 0.0, "{kind:?}: {}", largest(&still));
+            let (_, lattice) = step(1.0, 0.1);
+            assert!(largest(&lattice) < 1e-12, "{kind:?}: {}", largest(&lattice));
+            let (x, u) = step(0.95, 0.1);
+            let (_, u2) = step(0.95, 0.2);
+            let outward: f64 = x.iter().zip(&u).map(|(x, u)| x.dot(*u)).sum();
+            assert!(outward > 0.0, "{kind:?}: Σ x·u = {outward}");
+            // Linear in α: twice the factor, twice the velocity (from rest DG's `A` is `I`).
+            let ratio = largest(&u2) / largest(&u);
+            assert!((ratio - 2.0).abs() < 1e-9, "{kind:?}: ratio {ratio}");
+        }
+    }
+}

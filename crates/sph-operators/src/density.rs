@@ -46,3 +46,54 @@ pub fn density_at_points<D: Dim, K: Kernel<D>>(
             .sum()
     });
 }
+
+/// The Shepard sum `Σ_k V W(|k| Δx, h)` of a particle inside an infinite perfect lattice of
+/// spacing `Δx = V^{1/D}` (`k` over `ℤ^D`, the particle itself included): what
+/// [`kernel_sum_excess`] measures against. A fraction of a per cent from 1 (the kernel's lattice
+/// error).
+pub fn lattice_kernel_sum<D: Dim, K: Kernel<D>>(kernel: &K, volume: f64) -> f64 {
+    let dx = volume.powf(1.0 / D::DIM as f64);
+    let reach = (kernel.support_radius() / dx).ceil() as i64;
+    let side = 2 * reach + 1;
+    let points = side.pow(D::DIM as u32);
+    (0..points)
+        .map(|n| {
+            let mut rest = n;
+            let x = D::Vector::from_fn(|_| {
+                let k = rest % side - reach;
+                rest /= side;
+                k as f64 * dx
+            });
+            kernel.w(x.length())
+        })
+        .sum::<f64>()
+        * volume
+}
+
+/// Relative excess of each particle's Shepard sum over a perfect lattice's,
+/// `e_i = Σ_j V_j W_ij / S_lattice − 1` (`S_lattice` from [`lattice_kernel_sum`] at `volume`):
+/// positive where the particles are packed closer than the lattice their volumes stand for, the
+/// summation-density error `ρ̂_i/ρ̂_lattice − 1` of Eq. (31) for equal masses. `skip[i]`: write
+/// 0 instead (particles whose support is cut by a free surface, where the sum measures the cut
+/// and not the packing). Only the first `out.len()` particles are evaluated.
+pub fn kernel_sum_excess<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    volume: f64,
+    skip: &[bool],
+    out: &mut [f64],
+) {
+    assert!(out.len() <= ctx.len(), "at most one output per particle");
+    assert!(skip.len() >= out.len());
+    let lattice = lattice_kernel_sum(ctx.kernel, volume);
+    gather(out, |i| {
+        if skip[i] {
+            return 0.0;
+        }
+        let xi = ctx.positions[i];
+        let sum: f64 = ctx
+            .neighbors_of(i)
+            .map(|j| ctx.volumes[j] * ctx.kernel.w(ctx.pair(xi, j).length()))
+            .sum();
+        sum / lattice - 1.0
+    });
+}

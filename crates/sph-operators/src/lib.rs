@@ -18,6 +18,7 @@
 //! | operator | discrete form | paper |
 //! |---|---|---|
 //! | [`density_summation`], [`density_at_points`] | ρ_a = Σ_b m_b W_ab | Eq. 31 |
+//! | [`kernel_sum_excess`], [`lattice_kernel_sum`] | Σ_j V_j W_ij / S_lattice − 1 | Eq. 31 over a perfect lattice's |
 //! | [`gradient`] | Σ V_j (f_j − f_i) ∇W_ij, or the symmetric Σ V_j (f_i + f_j) ∇W_ij | — |
 //! | [`divergence`] | Σ V_j (u_j − u_i)·∇W_ij | Eq. 3 source |
 //! | [`velocity_gradient`], [`deformation_gradient`] | F = I + Σ V_j (Δx_j − Δx_i) ⊗ ∇W_ij | Eq. 26 |
@@ -91,7 +92,7 @@ pub use context::{
 };
 pub use correction::{CorrectionStats, correction_matrices};
 pub use deformation::{Invariants, deformation_gradient, invariants, velocity_gradient};
-pub use density::{density_at_points, density_summation};
+pub use density::{density_at_points, density_summation, kernel_sum_excess, lattice_kernel_sum};
 pub use divergence::divergence;
 pub use free_surface::{free_surface_indicator, free_surface_scan};
 pub use gradient::{GradientForm, gradient};

@@ -213,6 +213,42 @@ sph_core::dim_tests! {
         }
     }
 
+    /// The lattice reference is an interior particle's own Shepard sum (every kernel), so a
+    /// perfect lattice has no excess; a lattice compressed by `s` per axis carrying the same
+    /// volumes has the excess `s^{-D} S(s^D V)/S(V) − 1` (`S` the lattice sum at a volume), within
+    /// a few per cent of `s^{-D} − 1` (the kernel's lattice error); skipped particles get 0.
+    fn kernel_sum_excess_measures_packing_against_the_lattice<D>() {
+        for kind in [KernelKind::QuinticSpline, KernelKind::WendlandC2, KernelKind::CubicSpline] {
+            for scale in [1.0, 0.95] {
+                let mut lat = Lattice::<D>::new(kind, 1.3, 0.0);
+                let volume = lat.volumes[0];
+                for x in lat.positions.iter_mut() {
+                    *x *= scale;
+                }
+                let mut grid = sph_neighbors::CellGrid::<D>::new();
+                use sph_neighbors::NeighborSearch;
+                grid.build(&lat.positions, lat.kernel.support_radius()).unwrap();
+                grid.query(&lat.positions, &mut lat.neighbors);
+                let mut skip = vec![false; lat.len()];
+                skip[0] = true;
+                let mut e = vec![f64::NAN; lat.len()];
+                lat.with_ctx(|ctx| kernel_sum_excess(ctx, volume, &skip, &mut e));
+                assert_eq!(e[0], 0.0);
+                let dense = scale.powi(-(D::DIM as i32));
+                let s = |v: f64| lattice_kernel_sum(&lat.kernel, v);
+                let expected = dense * s(volume / dense) / s(volume) - 1.0;
+                assert!(((expected + 1.0) / dense - 1.0).abs() < 0.01, "{kind:?}: {expected}");
+                for &i in &lat.interior() {
+                    assert!(
+                        (e[i] - expected).abs() <= 1e-12,
+                        "{kind:?} scale {scale}: excess {} against {expected}",
+                        e[i]
+                    );
+                }
+            }
+        }
+    }
+
     fn operators_do_not_depend_on_thread_count<D>() {
         let lat = Lattice::<D>::new(KernelKind::WendlandC2, 1.3, 0.1);
         let f: Vec<f64> = lat.positions.iter().map(|x| x.length_squared().sin()).collect();

@@ -314,3 +314,21 @@ fn viscous_operator_defaults_to_corrected_in_flow_scenes_and_morris_in_the_paper
         .to_string();
     assert!(e.contains("cubic") && e.contains("corrected"), "{e}");
 }
+
+#[test]
+fn density_relaxation_is_off_by_default_and_checked() {
+    let config = |text: &str| Scene::parse("tank.toml", text).map(|s| s.sim_config());
+    assert_eq!(config(TANK).unwrap().density_relaxation, 0.0);
+    assert_eq!(config(CAVITY).unwrap().density_relaxation, 0.0);
+    let with = |a: &str| {
+        TANK.replace(
+            "[effects]",
+            &format!("[pressure]\ndensity_relaxation = {a}\n[effects]"),
+        )
+    };
+    assert_eq!(config(&with("0.05")).unwrap().density_relaxation, 0.05);
+    for bad in ["-0.1", "1.5", "nan"] {
+        let e = config(&with(bad)).unwrap_err().to_string();
+        assert!(e.contains("pressure.density_relaxation"), "{bad}: {e}");
+    }
+}
