@@ -49,8 +49,8 @@ pub fn density_at_points<D: Dim, K: Kernel<D>>(
 
 /// The Shepard sum `Σ_k V W(|k| Δx, h)` of a particle inside an infinite perfect lattice of
 /// spacing `Δx = V^{1/D}` (`k` over `ℤ^D`, the particle itself included): what
-/// [`kernel_sum_excess`] measures against. A fraction of a per cent from 1 (the kernel's lattice
-/// error).
+/// [`kernel_sum_excess`] measures against. Near 1; the difference is the kernel's lattice error
+/// at `h/Δx`.
 pub fn lattice_kernel_sum<D: Dim, K: Kernel<D>>(kernel: &K, volume: f64) -> f64 {
     let dx = volume.powf(1.0 / D::DIM as f64);
     let reach = (kernel.support_radius() / dx).ceil() as i64;
