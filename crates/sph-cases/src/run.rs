@@ -207,24 +207,11 @@ pub const COMMON_RESULTS: [&str; 13] = [
 
 /// Summation density `ρ̂ = m Σ_k W(|k| dx)` of a particle inside a perfect lattice of spacing
 /// `dx` and particle mass `m`: the reference of [`interior_density_error`], so the lattice's
-/// own kernel-sum offset (a fraction of a per cent) is not counted as compression.
+/// own kernel-sum offset (a fraction of a per cent) is not counted as compression. The lattice
+/// sum is [`sph_operators::lattice_kernel_sum`], the one density relaxation measures against.
 pub fn lattice_density<D: Dim>(sim: &Simulation<D>, dx: f64, mass: f64) -> f64 {
-    let r = sim.support_radius();
-    let n = (r / dx).ceil() as i64;
-    let kernel = sim.kernel();
-    let mut sum = 0.0;
-    let range = |k: usize| if k < D::DIM { -n..=n } else { 0..=0 };
-    for i in range(0) {
-        for j in range(1) {
-            for k in range(2) {
-                let d = dx * ((i * i + j * j + k * k) as f64).sqrt();
-                if d < r {
-                    sum += kernel.w(d);
-                }
-            }
-        }
-    }
-    mass * sum
+    let volume = dx.powi(D::DIM as i32);
+    mass / volume * sph_operators::lattice_kernel_sum(sim.kernel(), volume)
 }
 
 /// Largest `|ρ̂_i/ρ̂_lattice − 1|` over interior fluid particles, `ρ̂_i = Σ_j m_j W(|x_i − x_j|)`
