@@ -309,8 +309,12 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
     );
     if config.density_relaxation > 0.0 {
         crate::say!(
-            "  density     relaxed towards the lattice's by {} of its error per step",
-            config.density_relaxation
+            "  density     relaxed towards the lattice's by {} of its error per step ({} form)",
+            config.density_relaxation,
+            match config.density_relaxation_form {
+                sph_integrators::DensityRelaxationForm::Velocity => "velocity",
+                sph_integrators::DensityRelaxationForm::Position => "position",
+            }
         );
     }
     crate::say!(

@@ -380,4 +380,7 @@ pub struct PressureSpec {
     /// particle's summation density back towards the lattice's by the fraction `α` of its
     /// error per step (away from free surfaces). Default 0 (off) for every case.
     pub density_relaxation: Option<f64>,
+    /// How the relaxation acts: `"velocity"` (the projection's target divergence; default) or
+    /// `"position"` (a second Poisson solve displaces the particles, velocities untouched).
+    pub density_relaxation_form: Option<sph_integrators::DensityRelaxationForm>,
 }

@@ -488,6 +488,7 @@ impl Scene {
         config.renormalise = self.pressure.renormalise.unwrap_or(!flow);
         config.consistent_laplacian = self.pressure.consistent_laplacian.unwrap_or(false);
         config.density_relaxation = self.pressure.density_relaxation.unwrap_or(0.0);
+        config.density_relaxation_form = self.pressure.density_relaxation_form.unwrap_or_default();
         config.solver = self.solver;
         if let Some(tol) = self.solver_tolerance {
             config.solve.rel_tolerance = tol;
@@ -991,6 +992,14 @@ impl Validator<'_> {
             return self.bad(
                 "pressure.density_relaxation",
                 format!("must be in [0, 1] (a fraction of the density error per step), got {a}"),
+            );
+        }
+        if s.pressure.density_relaxation_form.is_some()
+            && s.pressure.density_relaxation.unwrap_or(0.0) == 0.0
+        {
+            return self.bad(
+                "pressure.density_relaxation_form",
+                "needs pressure.density_relaxation > 0 (without it nothing is relaxed)",
             );
         }
         let c = s.sim_config();

@@ -94,6 +94,20 @@ pub struct Shifting {
     pub velocity_correction: ShiftVelocity,
 }
 
+/// How density relaxation ([`SimConfig::density_relaxation`]) moves particles back towards the
+/// lattice's packing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DensityRelaxationForm {
+    /// Through the projection's target divergence (`∇·u_i = α e_i/Δt`; DG: `det A_i − 1 = α
+    /// e_i`): the velocities carry the correction (Asai et al. 2012).
+    #[default]
+    Velocity,
+    /// Through a second Poisson solve whose potential displaces the particles
+    /// (`δr_i = −Δt² ∇q_i/ρ_i`, `∇·((1/ρ)∇q)_i = −α e_i/Δt²`): the velocities are untouched.
+    Position,
+}
+
 /// How a shifted particle's velocity is carried to its new position.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -206,16 +220,18 @@ pub struct SimConfig {
     /// `sph_pressure::assemble_ppe`). A hydrostatic pressure is then an exact discrete solution
     /// of a disordered particle set; needs `renormalise`. Default `false` (the paper's operators).
     pub consistent_laplacian: bool,
-    /// Density-invariance relaxation `α` (Asai et al. 2012, J. Appl. Math. 2012, 139583): the
-    /// projection's target divergence becomes `α e_i / Δt` instead of 0, with `e_i` the
-    /// particle's summation-density excess over a perfect lattice
-    /// ([`kernel_sum_excess`](sph_operators::kernel_sum_excess)), so particles packed closer
-    /// than their volumes stand for are pushed apart (and spread ones drawn together) by the
-    /// fraction `α` of the error per step, and the volume the velocity divergence alone lets
-    /// drift is pulled back. Only where no free-surface particle is in the support (there the
-    /// sum measures the cut support). `0` (the default): off. Not a default of any scene: its
-    /// measured costs are in docs/hard-cases.md.
+    /// Density relaxation `α` (Asai et al. 2012, J. Appl. Math. 2012, 139583): each step moves
+    /// every fluid particle's summation density back towards a perfect lattice's by the fraction
+    /// `α` of its excess `e_i` ([`kernel_sum_excess`](sph_operators::kernel_sum_excess)), so
+    /// particles packed closer than their volumes stand for are moved apart (and spread ones
+    /// drawn together) and the volume the velocity divergence alone lets drift is restored; how,
+    /// [`density_relaxation_form`](Self::density_relaxation_form) says. Only where no
+    /// free-surface particle is in the support (there the sum measures the cut support). `0`
+    /// (the default): off. Not a default of any scene: its measured costs are in
+    /// docs/hard-cases.md.
     pub density_relaxation: f64,
+    /// How density relaxation acts: through the velocities (default) or the positions.
+    pub density_relaxation_form: DensityRelaxationForm,
     /// Linear solver. Default BiCGSTAB + AMG.
     pub solver: SolverKind,
     /// Solver tolerances.
@@ -254,6 +270,7 @@ impl SimConfig {
             dg_hessian: HessianForm::Eq25,
             consistent_laplacian: false,
             density_relaxation: 0.0,
+            density_relaxation_form: DensityRelaxationForm::Velocity,
             solver: SolverKind::BicgstabAmg,
             solve: SolveParams::default(),
             warm_start: true,

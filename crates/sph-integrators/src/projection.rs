@@ -4,6 +4,7 @@
 //! from `∇·r` → source (`∇·u*`, or `A = I + Δt∇u*` and `det A − 1`) → assemble → solve
 //! (warm-started from the previous pressure) → `uⁿ⁺¹ = u* − Δt ∇p/ρ` → `max |∇·uⁿ⁺¹|`.
 
+use crate::DensityRelaxationForm;
 use crate::report::{Phase, PhaseTimes};
 use crate::simulation::{Engine, engine_context};
 use crate::{StepError, report::DetFStats};
@@ -34,6 +35,8 @@ pub(crate) enum Equation {
 /// What a projection reports.
 pub(crate) struct Projected {
     pub(crate) solve: SolveInfo,
+    /// The density correction's solve, when the scene asks for one.
+    pub(crate) density_correction: Option<SolveInfo>,
     pub(crate) max_div_u: Option<f64>,
     pub(crate) free_surface: usize,
     pub(crate) hessian_fallbacks: usize,
@@ -185,14 +188,18 @@ pub(crate) fn project<D: Dim>(
     } else {
         &e.dirichlet
     };
+    let (velocity_form, position_form) = match e.config.density_relaxation_form {
+        DensityRelaxationForm::Velocity => (e.config.density_relaxation, 0.0),
+        DensityRelaxationForm::Position => (0.0, e.config.density_relaxation),
+    };
     let clock = Instant::now();
     match equation {
         Equation::Ppe => {
             divergence(&ctx, u_star, l, &mut e.source[..nf]);
-            // Target divergence α e_i / Δt (density relaxation).
+            // Velocity form: target divergence α e_i / Δt.
             relax_density(
                 &ctx,
-                e.config.density_relaxation / dt,
+                velocity_form / dt,
                 &e.dirichlet,
                 &mut e.surface_band,
                 &mut e.excess,
@@ -227,10 +234,10 @@ pub(crate) fn project<D: Dim>(
                 *s = dt * (inv.i1 + dt * (inv.i2 + dt * inv.i3));
                 *a = D::Matrix::IDENTITY + *a * dt;
             }
-            // Target det A − 1 = α e_i (density relaxation).
+            // Velocity form: target det A − 1 = α e_i.
             relax_density(
                 &ctx,
-                e.config.density_relaxation,
+                velocity_form,
                 &e.dirichlet,
                 &mut e.surface_band,
                 &mut e.excess,
@@ -337,8 +344,16 @@ pub(crate) fn project<D: Dim>(
     if let Some(w) = &e.walls {
         u_new[nf..].copy_from_slice(&w.velocity);
     }
+    let density_correction = if position_form > 0.0 {
+        Some(correct_density(
+            e, x, densities, dt, equation, robin, step, t, phases,
+        )?)
+    } else {
+        None
+    };
     Ok(Projected {
         solve,
+        density_correction,
         max_div_u,
         free_surface: e.dirichlet.iter().filter(|d| **d).count(),
         gauge_multiplier: e.gauge.last_multiplier,
@@ -346,13 +361,168 @@ pub(crate) fn project<D: Dim>(
     })
 }
 
-/// Density relaxation (`SimConfig::density_relaxation`, Asai et al. 2012): subtracts `rate · e_i`
-/// from each fluid particle's source (`source.len()` particles), `e_i` its kernel-sum excess over
-/// a perfect lattice of the first particle's volume (a scene's particles share one spacing).
-/// With `rate = α/Δt` the projection's target is `∇·u_i = α e_i / Δt`, with `rate = α` DG's is
-/// `det A_i − 1 = α e_i`: by continuity the summation density then moves back towards the
-/// lattice's by the fraction `α` of its error per step. Particles with a free-surface particle
-/// (`dirichlet`) in their support keep their source. `rate = 0`: nothing is done.
+/// Density relaxation, position form (`SimConfig::density_relaxation`, `α`, with
+/// [`DensityRelaxationForm::Position`]): after the projection, a second
+/// Poisson solve at the same configuration gives each fluid particle a displacement, not a
+/// velocity, that moves its summation density back towards a perfect lattice's by the fraction
+/// `α` of its error:
+///
+/// ```text
+/// ∇·((1/ρ) ∇q)_i = −α e_i / Δt²,   q = 0 on the free surface, ∂q/∂n = 0 at walls,
+/// δr_i = −Δt² (∇q)_i / ρ_i         (so ∇·δr_i = α e_i)
+/// ```
+///
+/// with `e_i = ρ̂_i/ρ̂_lattice − 1` the kernel-sum excess
+/// ([`kernel_sum_excess`]), set to 0 where a free-surface particle is in the support (there the
+/// sum measures the cut support). The matrix is the PPE's (Eq. 13's operator; for DG-ISPH it is
+/// assembled here, for the PPE the projection's is reused), the solve starts from zero (no
+/// state carried between steps: a resumed run is the same bits). The displacements are left in
+/// `e.correction` for the scheme to add to the step's; the velocities are untouched, so the
+/// correction restores the volume the divergence-free projection lets drift (Shao & Lo's
+/// density-invariance source, Asai et al. 2012's relaxation `α`, applied to positions as in
+/// Hu & Adams 2007's two-step projection) without adding momentum.
+#[allow(clippy::too_many_arguments)]
+fn correct_density<D: Dim>(
+    e: &mut Engine<D>,
+    x: &[D::Vector],
+    densities: &[f64],
+    dt: f64,
+    equation: Equation,
+    robin: f64,
+    step: usize,
+    t: f64,
+    phases: &mut PhaseTimes,
+) -> Result<SolveInfo, StepError> {
+    let ctx = engine_context!(e, x);
+    let nf = e.fluid;
+    let l = e.config.renormalise.then_some(&e.corrections[..]);
+    let clock = Instant::now();
+    e.surface_band[..nf]
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(256)
+        .for_each(|(i, b)| *b = ctx.neighbors_of(i).any(|j| e.dirichlet[j]));
+    kernel_sum_excess(
+        &ctx,
+        ctx.volumes[0],
+        &e.surface_band[..nf],
+        &mut e.excess[..nf],
+    );
+    phases.add(Phase::Source, clock);
+    let clock = Instant::now();
+    let alpha = e.config.density_relaxation;
+    let scale = alpha / (dt * dt);
+    if equation == Equation::Ppe {
+        // The projection's matrix is this equation's: only the right-hand side changes (wall
+        // and surface rows get zero data).
+        for (i, r) in e.rhs.iter_mut().enumerate() {
+            *r = if i < nf && !e.dirichlet[i] {
+                scale * e.excess[i]
+            } else {
+                0.0
+            };
+        }
+    } else {
+        let consistent = l.filter(|_| e.config.consistent_laplacian);
+        let flags: &[bool] = if robin > 0.0 {
+            &e.no_dirichlet
+        } else {
+            &e.dirichlet
+        };
+        for ((s, v), rho) in e.scalar.iter_mut().zip(&e.volumes).zip(densities) {
+            *s = v * rho;
+        }
+        for (s, x) in e.source[..nf].iter_mut().zip(&e.excess[..nf]) {
+            *s = -alpha * x / dt;
+        }
+        assemble_ppe(
+            &ctx,
+            &e.scalar,
+            densities,
+            &e.source,
+            dt,
+            flags,
+            consistent,
+            nf,
+            &mut e.matrix,
+            &mut e.rhs,
+        )
+        .map_err(|source| StepError::Assembly { step, t, source })?;
+        if nf < ctx.len() {
+            // Zero Neumann data: the wall rows' right-hand side is 0.
+            e.wall_grad.fill(D::Vector::ZERO);
+            assemble_wall_rows(&ctx, nf, densities, &e.wall_grad, &mut e.matrix, &mut e.rhs)
+                .map_err(|source| StepError::Assembly { step, t, source })?;
+        }
+        if robin > 0.0 {
+            assemble_surface_rows(
+                &ctx,
+                &e.dirichlet,
+                &e.corrections,
+                robin,
+                nf,
+                &mut e.matrix,
+                &mut e.rhs,
+            )
+            .map_err(|source| StepError::Assembly { step, t, source })?;
+        }
+    }
+    phases.add(Phase::Assembly, clock);
+    let system = CsrSystem {
+        offsets: e.neighbors.offsets(),
+        cols: e.neighbors.indices(),
+        values: &e.matrix.values,
+        rhs: &e.rhs,
+        border: None,
+    };
+    e.potential.fill(0.0);
+    // The PPE's solver keeps its hierarchy for this matrix; DG's belongs to another one.
+    let solver = match equation {
+        Equation::Ppe => &mut e.solver,
+        Equation::Dg => &mut e.correction_solver,
+    };
+    let clock = Instant::now();
+    let solve = if e.dirichlet.iter().any(|d| *d) {
+        solver.solve(&system, &mut e.potential, &e.config.solve)
+    } else {
+        let multiplier = e.gauge.last_multiplier;
+        let r = e
+            .gauge
+            .solve(solver, &system, nf, &mut e.potential, &e.config.solve);
+        // The step reports the projection's multiplier.
+        e.gauge.last_multiplier = multiplier;
+        r
+    }
+    .map_err(|source| StepError::Solve { step, t, source })?;
+    let total = clock.elapsed().as_secs_f64();
+    phases.add_seconds(Phase::PrecondSetup, solve.setup_seconds);
+    phases.add_seconds(Phase::Solve, total - solve.setup_seconds);
+    let clock = Instant::now();
+    // The difference form: `Σ (q_j − q_i) ∇W_ij V_j` vanishes for a constant potential, where
+    // the symmetric form's `q_i Σ ∇W_ij V_j` pushes particles of a truncated support (jets,
+    // surfaces) by a force no velocity balances; with it the 4a tank's run-up exploded.
+    gradient(
+        &ctx,
+        &e.potential,
+        sph_operators::GradientForm::Difference,
+        l,
+        &mut e.correction[..nf],
+    );
+    for (d, rho) in e.correction[..nf].iter_mut().zip(densities) {
+        *d *= -dt * dt / rho;
+    }
+    phases.add(Phase::Correction, clock);
+    Ok(solve)
+}
+
+/// Density relaxation, velocity form (`SimConfig::density_relaxation`, Asai et al. 2012):
+/// subtracts `rate · e_i` from each fluid particle's source (`source.len()` particles), `e_i` its
+/// kernel-sum excess over a perfect lattice of the first particle's volume (a scene's particles
+/// share one spacing). With `rate = α/Δt` the projection's target is `∇·u_i = α e_i / Δt`, with
+/// `rate = α` DG's is `det A_i − 1 = α e_i`: by continuity the summation density then moves
+/// back towards the lattice's by the fraction `α` of its error per step. Particles with a
+/// free-surface particle (`dirichlet`) in their support keep their source. `rate = 0`: nothing
+/// is done.
 fn relax_density<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     rate: f64,

@@ -444,6 +444,19 @@ fn projection_passes<D: Dim>(
         };
     }
     sim.buf.disp[nf..].fill(D::Vector::ZERO);
+    if projected.density_correction.is_some() {
+        // The density correction's displacements (velocities untouched), under the shifts'
+        // constraints: at most 0.2 Δx, at most half the distance to a wall.
+        let clock = Instant::now();
+        let e = &sim.engine;
+        let cap = MAX_SHIFT * e.volumes[0].powf(1.0 / D::DIM as f64);
+        sim.buf.disp[..nf]
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(i, d)| *d += constrain_shift(e, x_eval, i, e.correction[i], false, cap));
+        phases.add(Phase::Correction, clock);
+    }
     if let Some(sh) = sim.engine.config.effects.shifting {
         let clock = Instant::now();
         let bufs = ShiftBuffers {

@@ -102,10 +102,15 @@ pub(crate) struct Engine<D: Dim> {
     /// All `false`: the flags the assembly gets when the surface rows are Robin rows.
     pub(crate) no_dirichlet: Vec<bool>,
     pub(crate) source: Vec<f64>,
-    /// Density relaxation: each fluid particle's kernel-sum excess, and whether a free-surface
-    /// particle is in its support (then it is not relaxed).
+    /// Density correction: each fluid particle's kernel-sum excess, and whether a free-surface
+    /// particle is in its support (then its excess is not corrected).
     pub(crate) excess: Vec<f64>,
     pub(crate) surface_band: Vec<bool>,
+    /// Density correction: the solver of its equation when the projection's is another one
+    /// (DG-ISPH), its potential `q` and the displacements `−Δt² ∇q/ρ` it hands the scheme.
+    pub(crate) correction_solver: AnySolver,
+    pub(crate) potential: Vec<f64>,
+    pub(crate) correction: Vec<D::Vector>,
     pub(crate) a: Vec<D::Matrix>,
     pub(crate) rhs: Vec<f64>,
     pub(crate) matrix: CsrMatrix,
@@ -238,6 +243,9 @@ impl<D: Dim> Simulation<D> {
             source: Vec::new(),
             excess: Vec::new(),
             surface_band: Vec::new(),
+            correction_solver: AnySolver::new(config.solver),
+            potential: Vec::new(),
+            correction: Vec::new(),
             a: Vec::new(),
             rhs: Vec::new(),
             matrix: CsrMatrix::default(),
@@ -477,6 +485,8 @@ impl<D: Dim> Simulation<D> {
         if e.config.density_relaxation > 0.0 {
             e.excess.resize(n, 0.0);
             e.surface_band.resize(n, false);
+            e.potential.resize(n, 0.0);
+            e.correction.resize(n, D::Vector::ZERO);
         }
         e.a.resize(n, D::Matrix::IDENTITY);
         e.rhs.resize(n, 0.0);

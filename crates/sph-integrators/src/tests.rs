@@ -627,7 +627,7 @@ sph_core::dim_tests! {
 
 /// A ball of radius 0.3 at rest on a lattice of spacing `scale · dx` whose particles carry the
 /// volume `dx^D` (dx = 0.05): `scale < 1` is a fluid packed closer than its volumes stand for.
-fn ball_at_rest<D: Dim>(scale: f64, relaxation: f64) -> Simulation<D> {
+fn ball_at_rest<D: Dim>(scale: f64, relaxation: f64, form: DensityRelaxationForm) -> Simulation<D> {
     let dx = 0.05;
     let n = 7i64;
     let mut pts = Vec::new();
@@ -647,18 +647,19 @@ fn ball_at_rest<D: Dim>(scale: f64, relaxation: f64) -> Simulation<D> {
     let mut cfg = SimConfig::new(KernelKind::WendlandC2, 1.3 * dx);
     cfg.free_surface = Some(FreeSurface::default_for(D::DIM));
     cfg.density_relaxation = relaxation;
+    cfg.density_relaxation_form = form;
     Simulation::new(p, cfg).unwrap()
 }
 
 sph_core::dim_tests! {
-    /// Density relaxation: a ball packed 5 % closer per axis than its volumes stand for is
-    /// pushed apart (every scheme; no force acts, so without the relaxation it stays at rest),
-    /// by a velocity linear in α, while a ball on its own lattice stays at rest.
+    /// Density relaxation, velocity form: a ball packed 5 % closer per axis than its volumes
+    /// stand for is pushed apart (every scheme; no force acts, so without the relaxation it
+    /// stays at rest), by a velocity linear in α, while a ball on its own lattice stays at rest.
     fn density_relaxation_pushes_a_compressed_ball_apart<D>() {
         let dt = 1e-3;
         for kind in SchemeKind::ALL {
             let step = |scale: f64, alpha: f64| {
-                let mut sim = ball_at_rest::<D>(scale, alpha);
+                let mut sim = ball_at_rest::<D>(scale, alpha, DensityRelaxationForm::Velocity);
                 Scheme::new(kind).step(&mut sim, dt).unwrap();
                 let x = sim.particles.positions.clone();
                 let u = sim.particles.velocities.clone();
@@ -677,5 +678,67 @@ sph_core::dim_tests! {
             let ratio = largest(&u2) / largest(&u);
             assert!((ratio - 2.0).abs() < 1e-9, "{kind:?}: ratio {ratio}");
         }
+    }
+
+    /// Density relaxation, position form: the compressed ball is moved apart by displacements
+    /// alone (velocities stay 0), linearly in α, by the same displacements for every scheme
+    /// (from rest each solves the PPE operator's correction at xⁿ), while a ball on its own
+    /// lattice does not move.
+    fn position_relaxation_moves_a_compressed_ball_apart<D>() {
+        let dt = 1e-3;
+        let mut first: Option<Vec<D::Vector>> = None;
+        for kind in SchemeKind::ALL {
+            let step = |scale: f64, alpha: f64| {
+                let mut sim = ball_at_rest::<D>(scale, alpha, DensityRelaxationForm::Position);
+                let x0 = sim.particles.positions.clone();
+                Scheme::new(kind).step(&mut sim, dt).unwrap();
+                let dx: Vec<D::Vector> = sim
+                    .particles
+                    .positions
+                    .iter()
+                    .zip(&x0)
+                    .map(|(x, x0)| *x - *x0)
+                    .collect();
+                (x0, dx, sim.particles.velocities.clone())
+            };
+            let largest = |u: &[D::Vector]| u.iter().map(|v| v.length()).fold(0.0, f64::max);
+            let (_, lattice, _) = step(1.0, 0.1);
+            assert!(largest(&lattice) < 1e-14, "{kind:?}: {}", largest(&lattice));
+            let (x0, d, u) = step(0.95, 0.1);
+            let (_, d2, _) = step(0.95, 0.2);
+            assert!(largest(&u) == 0.0, "{kind:?}: |u| = {}", largest(&u));
+            let outward: f64 = x0.iter().zip(&d).map(|(x, d)| x.dot(*d)).sum();
+            assert!(outward > 0.0, "{kind:?}: Σ x·δx = {outward}");
+            // A fraction of the spacing, below the 0.2 Δx cap (so linear in α).
+            let m = largest(&d);
+            assert!(m > 1e-4 * 0.05 && m < 0.1 * 0.05, "{kind:?}: largest δx {m}");
+            let ratio = largest(&d2) / m;
+            assert!((ratio - 2.0).abs() < 1e-6, "{kind:?}: ratio {ratio}");
+            match &first {
+                None => first = Some(d),
+                Some(f) => {
+                    let diff = f.iter().zip(&d).map(|(a, b)| (*a - *b).length());
+                    let diff = diff.fold(0.0, f64::max);
+                    assert!(diff < 1e-6 * m, "{kind:?}: differs from Euler by {diff}");
+                }
+            }
+        }
+        // The same bits on one thread and on three.
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    let mut sim = ball_at_rest::<D>(0.95, 0.1, DensityRelaxationForm::Position);
+                    let mut scheme = Scheme::new(SchemeKind::Dg);
+                    for _ in 0..3 {
+                        scheme.step(&mut sim, dt).unwrap();
+                    }
+                    let x = sim.particles.positions.iter().flat_map(|x| x.to_array3());
+                    x.map(f64::to_bits).collect::<Vec<_>>()
+                })
+        };
+        assert!(run(1) == run(3), "positions differ between 1 and 3 threads");
     }
 }

@@ -326,9 +326,27 @@ fn density_relaxation_is_off_by_default_and_checked() {
             &format!("[pressure]\ndensity_relaxation = {a}\n[effects]"),
         )
     };
-    assert_eq!(config(&with("0.05")).unwrap().density_relaxation, 0.05);
+    let c = config(&with("0.05")).unwrap();
+    assert_eq!(c.density_relaxation, 0.05);
+    assert_eq!(
+        c.density_relaxation_form,
+        sph_integrators::DensityRelaxationForm::Velocity
+    );
     for bad in ["-0.1", "1.5", "nan"] {
         let e = config(&with(bad)).unwrap_err().to_string();
         assert!(e.contains("pressure.density_relaxation"), "{bad}: {e}");
     }
+    let c = config(&with("0.05\ndensity_relaxation_form = \"position\"")).unwrap();
+    assert_eq!(
+        c.density_relaxation_form,
+        sph_integrators::DensityRelaxationForm::Position
+    );
+    // A form without a rate, and an unknown form, name the key.
+    let e = config(&with("0\ndensity_relaxation_form = \"position\"")).unwrap_err();
+    assert!(
+        e.to_string().contains("pressure.density_relaxation_form"),
+        "{e}"
+    );
+    let e = config(&with("0.05\ndensity_relaxation_form = \"pressure\"")).unwrap_err();
+    assert!(e.to_string().contains("density_relaxation_form"), "{e}");
 }
