@@ -374,13 +374,14 @@ pub(crate) fn project<D: Dim>(
 ///
 /// with `e_i = ρ̂_i/ρ̂_lattice − 1` the kernel-sum excess
 /// ([`kernel_sum_excess`]), set to 0 where a free-surface particle is in the support (there the
-/// sum measures the cut support). The matrix is the PPE's (Eq. 13's operator; for DG-ISPH it is
+/// sum measures the cut support). The matrix is the PPE's (paper Eq. 3's operator; for DG-ISPH it is
 /// assembled here, for the PPE the projection's is reused), the solve starts from zero (no
 /// state carried between steps: a resumed run is the same bits). The displacements are left in
 /// `e.correction` for the scheme to add to the step's; the velocities are untouched, so the
 /// correction restores the volume the divergence-free projection lets drift (Shao & Lo's
-/// density-invariance source, Asai et al. 2012's relaxation `α`, applied to positions as in
-/// Hu & Adams 2007's two-step projection) without adding momentum.
+/// density-invariance source with Asai et al. 2012's relaxation `α`, solved apart from the
+/// divergence-free projection as in Hu & Adams 2007's two-step projection, and applied to
+/// positions only) without adding momentum.
 #[allow(clippy::too_many_arguments)]
 fn correct_density<D: Dim>(
     e: &mut Engine<D>,
