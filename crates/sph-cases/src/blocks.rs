@@ -378,9 +378,11 @@ pub struct PressureSpec {
     pub consistent_laplacian: Option<bool>,
     /// Density relaxation `α` in [0, 1] (Asai et al. 2012): the projection pulls each
     /// particle's summation density back towards the lattice's by the fraction `α` of its
-    /// error per step (away from free surfaces). Default 0 (off) for every case.
+    /// error per step (away from free surfaces). Default: `FLOW_DENSITY_RELAXATION` (0.05) for
+    /// `flow` and `dam_break` scenes, 0 (off) for the paper's cases.
     pub density_relaxation: Option<f64>,
-    /// How the relaxation acts: `"velocity"` (the projection's target divergence; default) or
-    /// `"position"` (a second Poisson solve displaces the particles, velocities untouched).
+    /// How the relaxation acts: `"velocity"` (the projection's target divergence) or
+    /// `"position"` (a second Poisson solve displaces the particles, velocities untouched;
+    /// the default of `flow` and `dam_break` scenes).
     pub density_relaxation_form: Option<sph_integrators::DensityRelaxationForm>,
 }

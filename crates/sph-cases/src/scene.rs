@@ -34,8 +34,9 @@ use crate::blocks::{
 };
 use serde::{Deserialize, Serialize};
 use sph_integrators::{
-    AutoTimeStep, Diagnostics, DtBound, Effects, FreeSurface, Limits, PeriodicAxes, SchemeKind,
-    ShiftScale, ShiftVelocity, Shifting, SimConfig, Viscosity, ViscousOperator, WallCondition,
+    AutoTimeStep, DensityRelaxationForm, Diagnostics, DtBound, Effects, FreeSurface, Limits,
+    PeriodicAxes, SchemeKind, ShiftScale, ShiftVelocity, Shifting, SimConfig, Viscosity,
+    ViscousOperator, WallCondition,
 };
 use sph_kernels::KernelKind;
 use sph_operators::HessianForm;
@@ -352,6 +353,11 @@ impl Estimate {
     }
 }
 
+/// Density relaxation of `flow` and `dam_break` scenes when `[pressure]` does not say: the
+/// fraction of each particle's packing error moved back per step, by displacements
+/// (`DensityRelaxationForm::Position`). Chosen from the study in docs/hard-cases.md.
+pub const FLOW_DENSITY_RELAXATION: f64 = 0.05;
+
 /// Steps between renumberings of the fluid particles in cell order when a scene does not say
 /// (`reorder_every`). The order decays slowly (a cavity's neighbour search slows by a quarter over
 /// thousands of steps); each renumbering costs about one neighbour search and a fresh AMG set-up.
@@ -487,8 +493,18 @@ impl Scene {
         };
         config.renormalise = self.pressure.renormalise.unwrap_or(!flow);
         config.consistent_laplacian = self.pressure.consistent_laplacian.unwrap_or(false);
-        config.density_relaxation = self.pressure.density_relaxation.unwrap_or(0.0);
-        config.density_relaxation_form = self.pressure.density_relaxation_form.unwrap_or_default();
+        // Flow scenes relax their packing by displacements (docs/physics.md, "Density
+        // relaxation"); the paper's cases keep the paper's projection.
+        config.density_relaxation = self.pressure.density_relaxation.unwrap_or(if flow {
+            FLOW_DENSITY_RELAXATION
+        } else {
+            0.0
+        });
+        config.density_relaxation_form = self.pressure.density_relaxation_form.unwrap_or(if flow {
+            DensityRelaxationForm::Position
+        } else {
+            DensityRelaxationForm::Velocity
+        });
         config.solver = self.solver;
         if let Some(tol) = self.solver_tolerance {
             config.solve.rel_tolerance = tol;
@@ -994,8 +1010,7 @@ impl Validator<'_> {
                 format!("must be in [0, 1] (a fraction of the density error per step), got {a}"),
             );
         }
-        if s.pressure.density_relaxation_form.is_some()
-            && s.pressure.density_relaxation.unwrap_or(0.0) == 0.0
+        if s.pressure.density_relaxation_form.is_some() && s.sim_config().density_relaxation == 0.0
         {
             return self.bad(
                 "pressure.density_relaxation_form",

@@ -227,8 +227,7 @@ pub struct SimConfig {
     /// drawn together) and the volume the velocity divergence alone lets drift is restored; how,
     /// [`density_relaxation_form`](Self::density_relaxation_form) says. Only where no
     /// free-surface particle is in the support (there the sum measures the cut support). `0`
-    /// (the default): off. Not a default of any scene: its measured costs are in
-    /// docs/hard-cases.md.
+    /// (the default): off (scenes of general flows turn it on; docs/physics.md).
     pub density_relaxation: f64,
     /// How density relaxation acts: through the velocities (default) or the positions.
     pub density_relaxation_form: DensityRelaxationForm,

@@ -316,9 +316,13 @@ fn viscous_operator_defaults_to_corrected_in_flow_scenes_and_morris_in_the_paper
 }
 
 #[test]
-fn density_relaxation_is_off_by_default_and_checked() {
+fn density_relaxation_defaults_by_case_and_is_checked() {
+    use sph_integrators::DensityRelaxationForm::{Position, Velocity};
     let config = |text: &str| Scene::parse("tank.toml", text).map(|s| s.sim_config());
-    assert_eq!(config(TANK).unwrap().density_relaxation, 0.0);
+    // Flow scenes relax by displacements; the paper's cases not at all.
+    let c = config(TANK).unwrap();
+    assert_eq!(c.density_relaxation, crate::scene::FLOW_DENSITY_RELAXATION);
+    assert_eq!(c.density_relaxation_form, Position);
     assert_eq!(config(CAVITY).unwrap().density_relaxation, 0.0);
     let with = |a: &str| {
         TANK.replace(
@@ -326,22 +330,19 @@ fn density_relaxation_is_off_by_default_and_checked() {
             &format!("[pressure]\ndensity_relaxation = {a}\n[effects]"),
         )
     };
-    let c = config(&with("0.05")).unwrap();
-    assert_eq!(c.density_relaxation, 0.05);
+    let c = config(&with("0.1")).unwrap();
     assert_eq!(
-        c.density_relaxation_form,
-        sph_integrators::DensityRelaxationForm::Velocity
+        (c.density_relaxation, c.density_relaxation_form),
+        (0.1, Position)
     );
+    assert_eq!(config(&with("0")).unwrap().density_relaxation, 0.0);
     for bad in ["-0.1", "1.5", "nan"] {
         let e = config(&with(bad)).unwrap_err().to_string();
         assert!(e.contains("pressure.density_relaxation"), "{bad}: {e}");
     }
-    let c = config(&with("0.05\ndensity_relaxation_form = \"position\"")).unwrap();
-    assert_eq!(
-        c.density_relaxation_form,
-        sph_integrators::DensityRelaxationForm::Position
-    );
-    // A form without a rate, and an unknown form, name the key.
+    let c = config(&with("0.05\ndensity_relaxation_form = \"velocity\"")).unwrap();
+    assert_eq!(c.density_relaxation_form, Velocity);
+    // A form with the relaxation off, and an unknown form, name the key.
     let e = config(&with("0\ndensity_relaxation_form = \"position\"")).unwrap_err();
     assert!(
         e.to_string().contains("pressure.density_relaxation_form"),
