@@ -262,26 +262,23 @@ pub(crate) fn project<D: Dim>(
             phases.add(Phase::Assembly, clock);
         }
     }
-    if nf < ctx.len() {
+    if nf < ctx.len() || robin > 0.0 {
         let clock = Instant::now();
-        assemble_wall_rows(&ctx, nf, densities, &e.wall_grad, &mut e.matrix, &mut e.rhs)
-            .map_err(|source| StepError::Assembly { step, t, source })?;
-        phases.add(Phase::Assembly, clock);
-    }
-    if robin > 0.0 {
-        let clock = Instant::now();
-        assemble_surface_rows(
+        boundary_rows(
             &ctx,
+            nf,
+            densities,
+            &e.wall_grad,
             &e.dirichlet,
             &e.corrections,
             robin,
-            nf,
             &mut e.matrix,
             &mut e.rhs,
         )
         .map_err(|source| StepError::Assembly { step, t, source })?;
         phases.add(Phase::Assembly, clock);
-    } else {
+    }
+    if robin <= 0.0 {
         for (p, d) in pressures.iter_mut().zip(&e.dirichlet) {
             if *d {
                 *p = 0.0;
@@ -449,24 +446,20 @@ fn correct_density<D: Dim>(
             &mut e.rhs,
         )
         .map_err(|source| StepError::Assembly { step, t, source })?;
-        if nf < ctx.len() {
-            // Zero Neumann data: the wall rows' right-hand side is 0.
-            e.wall_grad.fill(D::Vector::ZERO);
-            assemble_wall_rows(&ctx, nf, densities, &e.wall_grad, &mut e.matrix, &mut e.rhs)
-                .map_err(|source| StepError::Assembly { step, t, source })?;
-        }
-        if robin > 0.0 {
-            assemble_surface_rows(
-                &ctx,
-                &e.dirichlet,
-                &e.corrections,
-                robin,
-                nf,
-                &mut e.matrix,
-                &mut e.rhs,
-            )
-            .map_err(|source| StepError::Assembly { step, t, source })?;
-        }
+        // Zero Neumann data: the wall rows' right-hand side is 0.
+        e.wall_grad.fill(D::Vector::ZERO);
+        boundary_rows(
+            &ctx,
+            nf,
+            densities,
+            &e.wall_grad,
+            &e.dirichlet,
+            &e.corrections,
+            robin,
+            &mut e.matrix,
+            &mut e.rhs,
+        )
+        .map_err(|source| StepError::Assembly { step, t, source })?;
     }
     phases.add(Phase::Assembly, clock);
     let system = CsrSystem {
@@ -514,6 +507,30 @@ fn correct_density<D: Dim>(
     }
     phases.add(Phase::Correction, clock);
     Ok(solve)
+}
+
+/// The rows the fluid's equation does not write: the walls' (Neumann data `wall_grad`), when
+/// there are wall particles (from `first_wall` on), and with Robin surface rows (`robin` > 0)
+/// the free-surface particles'.
+#[allow(clippy::too_many_arguments)]
+fn boundary_rows<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    first_wall: usize,
+    densities: &[f64],
+    wall_grad: &[D::Vector],
+    dirichlet: &[bool],
+    corrections: &[D::Matrix],
+    robin: f64,
+    matrix: &mut sph_pressure::CsrMatrix,
+    rhs: &mut [f64],
+) -> Result<(), sph_pressure::PressureError> {
+    if first_wall < ctx.len() {
+        assemble_wall_rows(ctx, first_wall, densities, wall_grad, matrix, rhs)?;
+    }
+    if robin > 0.0 {
+        assemble_surface_rows(ctx, dirichlet, corrections, robin, first_wall, matrix, rhs)?;
+    }
+    Ok(())
 }
 
 /// Density relaxation, velocity form (`SimConfig::density_relaxation`, Asai et al. 2012):

@@ -217,20 +217,16 @@ mod tests {
         /// The same positions, to the bit, on 1 and 3 threads.
         fn relaxation_does_not_depend_on_thread_count<D>() {
             let run = |threads| {
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap()
-                    .install(|| {
-                        let mut sim = block::<D>(all_periodic::<D>(), 0.2, false);
-                        sim.relax(10, DX).unwrap();
-                        sim.particles
-                            .positions
-                            .iter()
-                            .flat_map(|x| x.to_array3())
-                            .map(f64::to_bits)
-                            .collect::<Vec<_>>()
-                    })
+                crate::tests::on_threads(threads, || {
+                    let mut sim = block::<D>(all_periodic::<D>(), 0.2, false);
+                    sim.relax(10, DX).unwrap();
+                    sim.particles
+                        .positions
+                        .iter()
+                        .flat_map(|x| x.to_array3())
+                        .map(f64::to_bits)
+                        .collect::<Vec<_>>()
+                })
             };
             assert!(run(1) == run(3));
         }

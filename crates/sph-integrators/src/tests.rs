@@ -396,13 +396,7 @@ sph_core::dim_tests! {
 
     /// The renumbered run is bitwise the same on one thread and on three.
     fn renumbered_steps_do_not_depend_on_thread_count<D>() {
-        let run = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| ten_renumbered_steps::<D>(SchemeKind::Dg, true))
-        };
+        let run = |threads| on_threads(threads, || ten_renumbered_steps::<D>(SchemeKind::Dg, true));
         let (a, b) = (run(1), run(3));
         assert_eq!(a.ids(), b.ids());
         let bits = |s: &Simulation<D>| {
@@ -417,6 +411,15 @@ sph_core::dim_tests! {
         };
         assert!(bits(&a) == bits(&b), "the state differs between 1 and 3 threads");
     }
+}
+
+/// `f`'s result computed on a fresh pool of `threads` threads (thread-count independence tests).
+pub(crate) fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
 }
 
 /// An error naming a particle names its initial index.
@@ -725,19 +728,15 @@ sph_core::dim_tests! {
         }
         // The same bits on one thread and on three.
         let run = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| {
-                    let mut sim = ball_at_rest::<D>(0.95, 0.1, DensityRelaxationForm::Position);
-                    let mut scheme = Scheme::new(SchemeKind::Dg);
-                    for _ in 0..3 {
-                        scheme.step(&mut sim, dt).unwrap();
-                    }
-                    let x = sim.particles.positions.iter().flat_map(|x| x.to_array3());
-                    x.map(f64::to_bits).collect::<Vec<_>>()
-                })
+            on_threads(threads, || {
+                let mut sim = ball_at_rest::<D>(0.95, 0.1, DensityRelaxationForm::Position);
+                let mut scheme = Scheme::new(SchemeKind::Dg);
+                for _ in 0..3 {
+                    scheme.step(&mut sim, dt).unwrap();
+                }
+                let x = sim.particles.positions.iter().flat_map(|x| x.to_array3());
+                x.map(f64::to_bits).collect::<Vec<_>>()
+            })
         };
         assert!(run(1) == run(3), "positions differ between 1 and 3 threads");
     }
