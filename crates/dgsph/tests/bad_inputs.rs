@@ -781,6 +781,13 @@ fn cases() -> Vec<Case> {
             "limits.max_displacement",
         ),
         (
+            "limits speed ratio negative",
+            CAVITY,
+            "max_steps = 1000",
+            "max_steps = 1000\nmax_speed_ratio = -5.0",
+            "limits.max_speed_ratio",
+        ),
+        (
             "steps above the limit",
             CAVITY,
             "max_steps = 1000",
@@ -1115,7 +1122,7 @@ fn cases() -> Vec<Case> {
             DROP,
             "case = \"elliptical_drop\"\ndim = 2\ndx = 0.1\ndt = 2e-4\nt_end = 6e-4\nschemes = [\"euler\", \"predictor_corrector\", \"dg\"]",
             "case = \"prescribed_ellipse\"\ndim = 2\ndx = 0.1\ndt = 20.0\nt_end = 2000.0\nschemes = [\"euler\"]",
-            "not finite",
+            "blow-up",
         ),
         (
             "solver tolerance 1e-16",
@@ -1137,6 +1144,13 @@ fn cases() -> Vec<Case> {
             "[output]",
             "[limits]\nmax_displacement = 1e-9\n[output]",
             "blow-up",
+        ),
+        (
+            "speed limit under the flow's own speed",
+            TG,
+            "velocity_field = { kind = \"taylor_green\" }\n",
+            "velocity_field = { kind = \"taylor_green\" }\n[limits]\nmax_speed_ratio = 0.5\n",
+            "max_speed_ratio",
         ),
     ] {
         let mut case = scene_case(name, base, from, to, expect);

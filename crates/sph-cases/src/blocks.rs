@@ -271,7 +271,16 @@ pub struct LimitsSpec {
     pub max_steps: Option<usize>,
     /// Largest displacement of a particle in one step, in smoothing lengths. Default 1.
     pub max_displacement: Option<f64>,
+    /// Largest fluid speed over the flow's velocity scale (the `max_speed_ratio` result's `U`)
+    /// before the run is stopped as a blow-up. Default [`DEFAULT_MAX_SPEED_RATIO`].
+    pub max_speed_ratio: Option<f64>,
 }
+
+/// The default `[limits] max_speed_ratio`: healthy flows of the hard suite stay under 4 times
+/// their velocity scale (the splash of a drop on a wall, the jets of the dam break's impact),
+/// blown-up ones pass 100 and more; a run whose speeds have run away to 50 times the scale is
+/// stopped rather than followed with ever smaller automatic steps.
+pub const DEFAULT_MAX_SPEED_RATIO: f64 = 50.0;
 
 impl LimitsSpec {
     /// The particle limit (default 4 000 000).
@@ -285,6 +294,10 @@ impl LimitsSpec {
     /// The step limit (default 10 000 000).
     pub fn steps(&self) -> usize {
         self.max_steps.unwrap_or(10_000_000)
+    }
+    /// The speed-ratio limit (default [`DEFAULT_MAX_SPEED_RATIO`]).
+    pub fn speed_ratio(&self) -> f64 {
+        self.max_speed_ratio.unwrap_or(DEFAULT_MAX_SPEED_RATIO)
     }
 }
 

@@ -41,6 +41,7 @@ pub mod registry;
 pub mod run;
 mod scene;
 
+pub use blocks::DEFAULT_MAX_SPEED_RATIO;
 pub use case::{Case, Column, Finish, Results, Setup, Table};
 pub use check::{Check, Criterion};
 pub use error::CaseError;

@@ -533,8 +533,29 @@ pub fn run_scheme<D: Dim>(
     let mut stop_pending = false;
     let mut bound = None;
     let mut k = sim.step;
+    let speed_limit = scene.limits.speed_ratio() * velocity_scale;
     loop {
         k += 1;
+        // The fastest fluid particle (the first of equals: the same on any thread count).
+        let (fastest, u_max) = sim.particles.velocities[..sim.fluid_len()]
+            .iter()
+            .map(|u| u.length())
+            .enumerate()
+            .fold(
+                (0, 0.0),
+                |(i, a), (j, b)| if b > a { (j, b) } else { (i, a) },
+            );
+        if speed_limit > 0.0 && u_max > speed_limit {
+            failure = Some(StepError::SpeedRunaway {
+                step: sim.step,
+                t: sim.t,
+                particle: sim.ids().get(fastest).map_or(fastest, |&id| id as usize),
+                speed: u_max,
+                scale: velocity_scale,
+                limit: scene.limits.speed_ratio(),
+            });
+            break;
+        }
         let (dt, short, is_last) = match auto {
             None => {
                 if k > last {
@@ -553,10 +574,6 @@ pub fn run_scheme<D: Dim>(
                 if remaining <= 1e-9 * scene.dt {
                     break;
                 }
-                let u_max = sim.particles.velocities[..sim.fluid_len()]
-                    .iter()
-                    .map(|u| u.length())
-                    .fold(0.0, f64::max);
                 let (dt, b) = a.choose(scene.dt, h, u_max, nu, gravity);
                 bound = Some(b);
                 bound_now.set(bound);

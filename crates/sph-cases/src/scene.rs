@@ -1638,6 +1638,12 @@ impl Validator<'_> {
                 "must be positive (in smoothing lengths)",
             );
         }
+        if l.max_speed_ratio.is_some_and(|m| !positive(m)) {
+            return self.bad(
+                "limits.max_speed_ratio",
+                "must be positive (a multiple of the flow's velocity scale)",
+            );
+        }
         Ok(())
     }
 

@@ -103,6 +103,27 @@ pub enum StepError {
         /// The offending value.
         dt: f64,
     },
+    /// The largest fluid speed passed `limit` times the flow's velocity scale (set by the run
+    /// loop, which knows the scale): the flow has run away. With automatic steps no single step
+    /// need move a particle far, so the displacement check ([`StepError::BlowUp`]) would not
+    /// catch it.
+    #[error(
+        "step {step} (t = {t:.6e}): blow-up: fluid particle {particle} moves at {speed:.3e}, more than {limit} times the flow's velocity scale {scale:.3e} (`[limits] max_speed_ratio`)"
+    )]
+    SpeedRunaway {
+        /// Step number.
+        step: usize,
+        /// Time at the start of the step.
+        t: f64,
+        /// The fastest fluid particle.
+        particle: usize,
+        /// Its speed.
+        speed: f64,
+        /// The flow's velocity scale.
+        scale: f64,
+        /// The limit, as a multiple of the scale.
+        limit: f64,
+    },
     /// The automatic time step fell below [`COLLAPSE_FRACTION`] of the largest step so far: the
     /// flow is running away (its speed, and with it the advective limit, without bound), which a
     /// shrinking step would otherwise follow for ever without any one step moving a particle far.
@@ -138,6 +159,7 @@ impl StepError {
         match &mut self {
             StepError::NonFinite { particle, .. }
             | StepError::BlowUp { particle, .. }
+            | StepError::SpeedRunaway { particle, .. }
             | StepError::Escaped { particle, .. } => {
                 if let Some(&id) = ids.get(*particle) {
                     *particle = id as usize;

@@ -462,15 +462,58 @@ fn the_automatic_step_is_the_binding_limit<D>() {
 }
 
 /// A flow that runs away under the automatic step (the Taylor–Green vortex without shifting,
-/// quick preset: particles gather on the stagnation lines) is stopped as a blow-up when the
-/// step falls below `COLLAPSE_FRACTION` of the run's largest, naming the limit that binds;
-/// the shrinking step would otherwise follow its speed without any step moving a particle
-/// further than `h` (speeds of 1e26 were reached).
+/// quick preset: particles gather on the stagnation lines) is stopped as a blow-up once its
+/// fastest particle passes `[limits] max_speed_ratio` (default 50) times the flow's velocity
+/// scale (here the initial largest speed), naming the particle; the shrinking step would
+/// otherwise follow its speed without any step moving a particle further than `h`.
+#[test]
+fn a_runaway_flow_stops_when_its_speed_passes_the_limit() {
+    use sph_cases::DEFAULT_MAX_SPEED_RATIO;
+    use sph_integrators::StepError;
+    let text = include_str!("../../../../cases/hard/taylor_green_no_shift.toml");
+    let scene = parse_scene("taylor_green_no_shift", text).unwrap().quick();
+    let (out, sink) = crate::support::run(&scene, SchemeKind::Euler);
+    let u0 = sink.column("max_speed")[0];
+    match out.failure {
+        Some(StepError::SpeedRunaway {
+            speed,
+            scale,
+            limit,
+            particle,
+            ..
+        }) => {
+            assert_eq!(limit, DEFAULT_MAX_SPEED_RATIO);
+            assert_eq!(scale, u0);
+            assert!(speed > limit * scale, "speed {speed}, scale {scale}");
+            assert!(particle < 10_000, "particle {particle}");
+        }
+        other => panic!("expected the speed limit to stop the run: {other:?}"),
+    }
+    // Stopped before the step after the first state past the limit: only the last record, if
+    // any, is over it.
+    let speeds = sink.column("max_speed");
+    let over = speeds
+        .iter()
+        .filter(|&&u| u > DEFAULT_MAX_SPEED_RATIO * u0)
+        .count();
+    assert!(over <= 1, "{over} records over the limit");
+    assert!(
+        speeds[..speeds.len() - 1]
+            .iter()
+            .all(|&u| u <= DEFAULT_MAX_SPEED_RATIO * u0)
+    );
+    assert!(out.t < 1.0, "t = {}", out.t);
+}
+
+/// With the speed limit lifted, the same runaway is stopped when the automatic step falls below
+/// `COLLAPSE_FRACTION` of the run's largest, naming the limit that binds (without either check
+/// its speed reached 1e26 in steps of 1e-28).
 #[test]
 fn a_runaway_flow_stops_when_the_automatic_step_collapses() {
     use sph_integrators::{COLLAPSE_FRACTION, DtBound, StepError};
     let text = include_str!("../../../../cases/hard/taylor_green_no_shift.toml");
-    let scene = parse_scene("taylor_green_no_shift", text).unwrap().quick();
+    let mut scene = parse_scene("taylor_green_no_shift", text).unwrap().quick();
+    scene.limits.max_speed_ratio = Some(1e300);
     let (out, _) = crate::support::run(&scene, SchemeKind::Euler);
     match out.failure {
         Some(StepError::TimeStepCollapse {
