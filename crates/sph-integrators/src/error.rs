@@ -115,7 +115,7 @@ pub enum StepError {
         step: usize,
         /// Time at the start of the step.
         t: f64,
-        /// The fastest fluid particle.
+        /// The fastest fluid particle, by its index in the initial state.
         particle: usize,
         /// Its speed.
         speed: f64,
