@@ -26,7 +26,10 @@ use crate::case::{Case, Column, Finish, Results, Setup, Table};
 use crate::reference::References;
 use crate::{CaseError, Check, Scene};
 use sph_core::{Dim, VectorOps};
-use sph_integrators::{SchemeKind, Simulation, StepReport, Viscosity};
+use crate::CavityWallModel;
+use sph_integrators::{
+    Ghosts, SchemeKind, Simulation, StepReport, Viscosity, WallModel, Walls,
+};
 use sph_kernels::Kernel;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
 use sph_operators::{SphContext, density_at_points};
@@ -78,15 +81,72 @@ pub fn setup<D: Dim>(scene: &Scene) -> Result<Setup<D>, CaseError> {
         message: "section missing".into(),
     })?;
     let (fluid, wall) = blocks(scene)?;
-    let built = crate::geometry::build_blocks::<D>(scene, &[fluid], &[wall], spec.wall_condition)?;
+    let mut built =
+        crate::geometry::build_blocks::<D>(scene, &[fluid], &[wall], spec.wall_condition)?;
     let mut config = scene.sim_config();
     config.effects.viscosity = Some(Viscosity::morris(spec.lid_speed.abs() / spec.reynolds));
+    if spec.wall_model == CavityWallModel::Ghost
+        && let Some(walls) = built.walls.as_mut()
+    {
+        let reach = config.kernel.build::<D>(config.h).support_radius();
+        if 2.0 * reach >= 1.0 {
+            return Err(CaseError::Invalid {
+                scene: "lid_driven_cavity".into(),
+                field: "cavity.wall_model".into(),
+                message: format!(
+                    "mirror ghosts need the cavity wider than twice the kernel support \
+                     ({reach:.3} at dx = {}): refine dx",
+                    scene.dx
+                ),
+            });
+        }
+        mirror_ghost_walls(&mut built.particles, walls, spec.lid_speed, reach);
+    }
     Ok(Setup {
         particles: built.particles,
         config,
         walls: built.walls,
         carved: built.carved,
     })
+}
+
+/// Replaces the cavity's dummy wall particles by mirror-ghost slots
+/// ([`WallModel::MirrorGhosts`]): the unit box's faces are the walls, the `+y` face moving with
+/// `(lid_speed, 0, 0)`, and a fluid particle within `reach` of a face gets a ghost across it.
+/// The slots number twice the ghosts of the initial lattice (a closed box keeps about as many
+/// particles within reach of its walls; a step needing more fails with a typed error). The
+/// walls' geometry and thickness (the escape test) stay those of the dummy layers.
+fn mirror_ghost_walls<D: Dim>(
+    particles: &mut sph_core::ParticleSet<D>,
+    walls: &mut Walls<D>,
+    lid_speed: f64,
+    reach: f64,
+) {
+    let nf = walls.first;
+    let mut faces = vec![D::Vector::ZERO; 2 * D::DIM];
+    faces[3] = D::Vector::from_fn(|k| if k == 0 { lid_speed } else { 0.0 });
+    let lo = D::Vector::ZERO;
+    let hi = D::Vector::from_fn(|_| 1.0);
+    let probe = Ghosts::<D>::new(lo, hi, faces.clone(), reach, 0);
+    let slots = 2 * probe.needed(particles.positions[..nf].iter().copied()) + 16;
+    let ghosts = Ghosts::<D>::new(lo, hi, faces, reach, slots);
+    let p = particles;
+    p.positions.truncate(nf);
+    p.positions.extend_from_slice(&ghosts.park);
+    let (m, rho) = (p.masses[0], p.densities[0]);
+    p.velocities.resize(nf, D::Vector::ZERO);
+    p.velocities.resize(nf + slots, D::Vector::ZERO);
+    p.masses.resize(nf, m);
+    p.masses.resize(nf + slots, m);
+    p.densities.resize(nf, rho);
+    p.densities.resize(nf + slots, rho);
+    p.pressures.resize(nf, 0.0);
+    p.pressures.resize(nf + slots, 0.0);
+    walls.model = WallModel::MirrorGhosts;
+    walls.velocity = vec![D::Vector::ZERO; slots];
+    walls.mirror = vec![D::Vector::from_fn(|_| 1.0); slots];
+    walls.inward = vec![D::Vector::ZERO; slots];
+    walls.ghosts = Some(ghosts);
 }
 
 /// Centreline velocity profiles at Ghia's points.
@@ -536,8 +596,11 @@ pub fn profiles<D: Dim>(
     let ctx = SphContext::new(&p.positions, &volumes, &lists, sim.kernel());
     let mut u = p.velocities.clone();
     walls.no_slip_velocity(&ctx, &p.velocities, &mut u[nf..]);
+    // Mirror ghosts carry no prescribed velocity: their faces do.
     let lid = walls
-        .velocity
+        .ghosts
+        .as_ref()
+        .map_or(&walls.velocity, |g| &g.face_velocity)
         .iter()
         .map(|v| v.get(0).abs())
         .fold(0.0, f64::max);

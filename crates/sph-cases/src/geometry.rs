@@ -478,6 +478,7 @@ pub fn build_blocks<D: Dim>(
             separation: scene.free_surface.is_some(),
             geometry,
             thickness,
+            ghosts: None,
         })
     };
     let mut particles = ParticleSet::<D>::from_positions(positions, dx.powi(D::DIM as i32), rho0);

@@ -95,6 +95,22 @@ pub enum StepError {
         /// The walls' thickness.
         thickness: f64,
     },
+    /// The fluid needs more mirror ghosts than the walls have slots
+    /// ([`Ghosts`](crate::Ghosts)): more particles have gathered within a support of the walls
+    /// than the builder allowed for. The particles are left as they were before the step.
+    #[error(
+        "step {step} (t = {t:.6e}): the fluid needs {needed} mirror ghosts, the walls have {slots} slots (particles have gathered at the walls)"
+    )]
+    GhostCapacity {
+        /// Step number.
+        step: usize,
+        /// Time at the start of the step.
+        t: f64,
+        /// Ghosts the positions need.
+        needed: usize,
+        /// Slots the walls have.
+        slots: usize,
+    },
     /// The time step is not a positive finite number.
     #[error("step {step}: invalid time step {dt}")]
     InvalidTimeStep {

@@ -44,4 +44,4 @@ pub use schemes::{DgIsph, EulerIsph, Integrator, PredictorCorrectorIsph, Scheme,
 pub use simulation::Simulation;
 pub use time_step::{AutoTimeStep, DtBound};
 pub use wall_geometry::{WallBox, WallBoxKind, WallGeometry};
-pub use walls::{WallCondition, WallError, WallModel, Walls};
+pub use walls::{Ghosts, WallCondition, WallError, WallModel, Walls};

@@ -19,7 +19,7 @@ use sph_operators::{
 };
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_surface_rows,
-    assemble_wall_rows,
+    assemble_wall_rows, fold_ghost_columns,
 };
 use std::time::Instant;
 
@@ -264,6 +264,11 @@ pub(crate) fn project<D: Dim>(
     }
     if nf < ctx.len() || robin > 0.0 {
         let clock = Instant::now();
+        let ghosts = e
+            .walls
+            .as_ref()
+            .and_then(|w| w.ghost_sources())
+            .map(|s| (s, gravity));
         boundary_rows(
             &ctx,
             nf,
@@ -272,6 +277,7 @@ pub(crate) fn project<D: Dim>(
             &e.dirichlet,
             &e.corrections,
             robin,
+            ghosts,
             &mut e.matrix,
             &mut e.rhs,
         )
@@ -309,6 +315,10 @@ pub(crate) fn project<D: Dim>(
     phases.add_seconds(Phase::PrecondSetup, solve.setup_seconds);
     phases.add_seconds(Phase::Solve, total - solve.setup_seconds);
     let clock = Instant::now();
+    // Mirror ghosts take their sources' pressures (their own rows solved for 0).
+    if let Some(w) = &e.walls {
+        w.ghost_values(x, densities, gravity, pressures);
+    }
     gradient(&ctx, pressures, e.config.gradient, l, &mut e.grad_p[..nf]);
     for (((un, us), g), rho) in u_new[..nf]
         .iter_mut()
@@ -337,9 +347,14 @@ pub(crate) fn project<D: Dim>(
     } else {
         None
     };
-    // Wall particles keep their prescribed velocity.
+    // Wall particles keep their prescribed velocity; mirror ghosts reflect their sources'.
     if let Some(w) = &e.walls {
-        u_new[nf..].copy_from_slice(&w.velocity);
+        if w.ghosts.is_some() {
+            let (fluid, walls) = u_new.split_at_mut(nf);
+            w.ghost_velocities(fluid, walls);
+        } else {
+            u_new[nf..].copy_from_slice(&w.velocity);
+        }
     }
     let density_correction = if position_form > 0.0 {
         Some(correct_density(
@@ -448,6 +463,11 @@ fn correct_density<D: Dim>(
         .map_err(|source| StepError::Assembly { step, t, source })?;
         // Zero Neumann data: the wall rows' right-hand side is 0.
         e.wall_grad.fill(D::Vector::ZERO);
+        let ghosts = e
+            .walls
+            .as_ref()
+            .and_then(|w| w.ghost_sources())
+            .map(|s| (s, D::Vector::ZERO));
         boundary_rows(
             &ctx,
             nf,
@@ -456,6 +476,7 @@ fn correct_density<D: Dim>(
             &e.dirichlet,
             &e.corrections,
             robin,
+            ghosts,
             &mut e.matrix,
             &mut e.rhs,
         )
@@ -492,6 +513,9 @@ fn correct_density<D: Dim>(
     phases.add_seconds(Phase::PrecondSetup, solve.setup_seconds);
     phases.add_seconds(Phase::Solve, total - solve.setup_seconds);
     let clock = Instant::now();
+    if let Some(w) = &e.walls {
+        w.ghost_values(x, densities, D::Vector::ZERO, &mut e.potential);
+    }
     // The difference form: `Σ (q_j − q_i) ∇W_ij V_j` vanishes for a constant potential, where
     // the symmetric form's `q_i Σ ∇W_ij V_j` pushes particles of a truncated support (jets,
     // surfaces) by a force no velocity balances; with it the 4a tank's run-up exploded.
@@ -511,7 +535,8 @@ fn correct_density<D: Dim>(
 
 /// The rows the fluid's equation does not write: the walls' (Neumann data `wall_grad`), when
 /// there are wall particles (from `first_wall` on), and with Robin surface rows (`robin` > 0)
-/// the free-surface particles'.
+/// the free-surface particles'. Mirror ghosts (`ghosts`: their sources and the prescribed
+/// `∇p/ρ`) are folded onto their sources instead of getting wall rows.
 #[allow(clippy::too_many_arguments)]
 fn boundary_rows<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
@@ -521,11 +546,17 @@ fn boundary_rows<D: Dim, K: Kernel<D>>(
     dirichlet: &[bool],
     corrections: &[D::Matrix],
     robin: f64,
+    ghosts: Option<(&[u32], D::Vector)>,
     matrix: &mut sph_pressure::CsrMatrix,
     rhs: &mut [f64],
 ) -> Result<(), sph_pressure::PressureError> {
     if first_wall < ctx.len() {
-        assemble_wall_rows(ctx, first_wall, densities, wall_grad, matrix, rhs)?;
+        match ghosts {
+            Some((sources, grad)) => {
+                fold_ghost_columns(ctx, first_wall, sources, densities, grad, matrix, rhs)?
+            }
+            None => assemble_wall_rows(ctx, first_wall, densities, wall_grad, matrix, rhs)?,
+        }
     }
     if robin > 0.0 {
         assemble_surface_rows(ctx, dirichlet, corrections, robin, first_wall, matrix, rhs)?;

@@ -319,6 +319,8 @@ fn projection_step<D: Dim>(
         sim.reorder_by_cell();
         phases.add(Phase::Neighbors, clock);
     }
+    // Mirror ghosts follow the fluid (and its numbering): placed before the lists are built.
+    sim.refresh_walls()?;
     projection_passes(sim, dt, equation, rule, t0, phases)
         .map_err(|e| e.with_particle_ids(&sim.order.ids))
 }
@@ -374,8 +376,18 @@ fn projection_passes<D: Dim>(
                 let y = *x + *u * dt;
                 *xp = periodic.map_or(y, |per| per.wrap(y));
             }
-            // Walls do not move (a lid's velocity is tangential and prescribed).
+            // Walls do not move (a lid's velocity is tangential and prescribed); mirror
+            // ghosts are placed at the predicted fluid positions.
             sim.buf.x_pred[nf..].copy_from_slice(&p.positions[nf..]);
+            if let Some(w) = &mut sim.engine.walls {
+                w.place_ghosts(&mut sim.buf.x_pred)
+                    .map_err(|(needed, slots)| StepError::GhostCapacity {
+                        step,
+                        t,
+                        needed,
+                        slots,
+                    })?;
+            }
             // A predictor that already moves a particle past the limit is a blow-up (its
             // lists and matrix would be built on positions that no longer form a fluid).
             let (far, max2) =
@@ -514,7 +526,27 @@ fn projection_passes<D: Dim>(
     } else {
         None
     };
+    // Mirror ghosts at the end positions: fail before anything is written if there are too
+    // few slots for them.
+    if let Some((needed, slots)) = sim.engine.walls.as_ref().and_then(|w| {
+        let end = p.positions[..nf]
+            .iter()
+            .zip(&sim.buf.disp)
+            .map(|(x, d)| *x + *d);
+        w.ghosts
+            .as_ref()
+            .map(|g| (g.needed(end), w.velocity.len()))
+    }) && needed > slots
+    {
+        return Err(StepError::GhostCapacity {
+            step,
+            t,
+            needed,
+            slots,
+        });
+    }
     commit(sim);
+    sim.refresh_walls()?;
     // A particle in wall material after the step is one whose end point `x + δx` (the point
     // `commit` has just moved it to, the same sum) lies at a depth > 0, so none is when the
     // check's deepest end point is at depth 0 and the guard did not run: the count's pass over

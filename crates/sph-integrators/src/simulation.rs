@@ -1,3 +1,4 @@
+use crate::StepError;
 use crate::config::SimConfig;
 use crate::walls::{WallError, Walls};
 use sph_core::{CoreError, Dim, MatrixOps, ParticleSet, Periodic, VectorOps};
@@ -303,6 +304,11 @@ impl<D: Dim> Simulation<D> {
     ) -> Result<Self, WallError> {
         walls.check(particles.len())?;
         particles.velocities[walls.first..].copy_from_slice(&walls.velocity);
+        let mut walls = walls;
+        let g = config.effects.gravity.unwrap_or([0.0; 3]);
+        walls
+            .refresh(&mut particles, D::Vector::from_fn(|k| g[k]))
+            .map_err(|(needed, slots)| WallError::GhostCapacity { needed, slots })?;
         let mut sim = Self::new(particles, config)?;
         sim.engine.fluid = walls.first;
         sim.engine.walls = Some(walls);
@@ -312,6 +318,23 @@ impl<D: Dim> Simulation<D> {
     /// The walls, if any.
     pub fn walls(&self) -> Option<&Walls<D>> {
         self.engine.walls.as_ref()
+    }
+
+    /// Brings mirror ghosts up to date with the fluid particles (see [`Walls::refresh`]);
+    /// nothing for dummy wall particles. On failure (too few ghost slots) the particles are
+    /// unchanged.
+    pub(crate) fn refresh_walls(&mut self) -> Result<(), StepError> {
+        let Some(w) = &mut self.engine.walls else {
+            return Ok(());
+        };
+        let g = self.engine.config.effects.gravity.unwrap_or([0.0; 3]);
+        w.refresh(&mut self.particles, D::Vector::from_fn(|k| g[k]))
+            .map_err(|(needed, slots)| StepError::GhostCapacity {
+                step: self.step,
+                t: self.t,
+                needed,
+                slots,
+            })
     }
 
     /// Number of fluid particles (the first ones of [`Simulation::particles`]).

@@ -259,6 +259,7 @@ sph_core::dim_tests! {
             separation: false,
             geometry: crate::WallGeometry::closed_box(D::Vector::ZERO, D::Vector::from_fn(|_| 1.0)),
             thickness: 0.5,
+            ghosts: None,
         };
         let u = vec![u0; fluid.len()];
         let (g, dt) = (D::Vector::from_fn(|c| -(c as f64) - 1.0), 0.1);
@@ -313,6 +314,7 @@ sph_core::dim_tests! {
             separation: false,
             geometry: crate::WallGeometry::closed_box(D::Vector::ZERO, D::Vector::from_fn(|_| 1.0)),
             thickness: 0.5,
+            ghosts: None,
         };
         let x = [inside, a, b, wall];
         assert_eq!(walls.penetrations(&x), 2);
@@ -512,6 +514,7 @@ fn drop_in<D: Dim>(geometry: crate::WallGeometry<D>) -> Simulation<D> {
         separation: false,
         geometry,
         thickness: 0.5,
+        ghosts: None,
     };
     Simulation::with_walls(p, cfg, walls).unwrap()
 }
@@ -739,5 +742,125 @@ sph_core::dim_tests! {
             })
         };
         assert!(run(1) == run(3), "positions differ between 1 and 3 threads");
+    }
+}
+
+/// Mirror ghosts of the unit box for the fluid positions `x` (reach 0.2), with `slots` slots;
+/// the `+y` face moves with `(1, 0[, 0])`.
+fn ghost_walls<D: Dim>(x: &[D::Vector], slots: usize) -> Walls<D> {
+    let mut faces = vec![D::Vector::ZERO; 2 * D::DIM];
+    faces[3] = D::Vector::from_fn(|k| if k == 0 { 1.0 } else { 0.0 });
+    let ghosts = Ghosts::new(
+        D::Vector::ZERO,
+        D::Vector::from_fn(|_| 1.0),
+        faces,
+        0.2,
+        slots,
+    );
+    Walls {
+        model: WallModel::MirrorGhosts,
+        condition: WallCondition::Continuation,
+        first: x.len(),
+        velocity: vec![D::Vector::ZERO; slots],
+        mirror: vec![D::Vector::from_fn(|_| 1.0); slots],
+        inward: vec![D::Vector::ZERO; slots],
+        separation: false,
+        geometry: crate::WallGeometry::closed_box(D::Vector::ZERO, D::Vector::from_fn(|_| 1.0)),
+        thickness: 0.2,
+        ghosts: Some(ghosts),
+    }
+}
+
+sph_core::dim_tests! {
+    /// A particle in the middle gets no ghost, one within reach of one face one ghost mirrored
+    /// across it, one in a corner of `m` faces `2^m − 1` (3 in 2D, 7 in 3D): every mirror of it.
+    /// The slots left over are parked out of reach; too few slots is an error that leaves the
+    /// positions alone.
+    fn ghosts_mirror_every_particle_near_a_face<D>() {
+        let v = |a: f64, b: f64, c: f64| D::Vector::from_fn(|k| [a, b, c][k]);
+        let fluid = vec![v(0.5, 0.5, 0.5), v(0.9, 0.5, 0.5), v(0.05, 0.1, 0.15)];
+        let corner = (1usize << D::DIM) - 1;
+        let needed = 1 + corner;
+        let mut walls = ghost_walls::<D>(&fluid, needed + 5);
+        let mut x = fluid.clone();
+        x.extend(walls.ghosts.as_ref().unwrap().park.clone());
+        assert_eq!(walls.ghosts_needed(&x), Some((needed, needed + 5)));
+        walls.place_ghosts(&mut x).unwrap();
+        let g = walls.ghosts.as_ref().unwrap();
+        let nf = fluid.len();
+        // The particle at x = 0.9: its mirror across x = 1.
+        assert_eq!(g.source[0], 1);
+        assert!((x[nf] - v(1.1, 0.5, 0.5)).length() < 1e-15);
+        assert_eq!(walls.mirror[0].get(0), -1.0);
+        assert_eq!(walls.inward[0].get(0), 1.0);
+        // The corner particle: all 2^m − 1 mirrors, each once.
+        let mut mirrors: Vec<D::Vector> = (1..=corner).map(|k| x[nf + k]).collect();
+        for k in 1..=corner {
+            assert_eq!(g.source[k], 2);
+        }
+        let p = fluid[2];
+        for signs in 1..=corner {
+            let want = D::Vector::from_fn(|a| {
+                if signs & (1 << a) != 0 { -p.get(a) } else { p.get(a) }
+            });
+            let at = mirrors.iter().position(|m| (*m - want).length() < 1e-15);
+            assert!(at.is_some(), "mirror {want:?} missing");
+            mirrors.remove(at.unwrap());
+        }
+        // Parked slots: out of reach of the fluid and of each other.
+        for k in needed..needed + 5 {
+            assert_eq!(g.source[k], Ghosts::<D>::PARKED);
+            for f in &fluid {
+                assert!((x[nf + k] - *f).length() > 0.4);
+            }
+        }
+        // Too few slots.
+        let mut small = ghost_walls::<D>(&fluid, needed - 1);
+        let mut y = fluid.clone();
+        y.extend(small.ghosts.as_ref().unwrap().park.clone());
+        let before = y.clone();
+        assert_eq!(small.place_ghosts(&mut y), Err((needed, needed - 1)));
+        assert_eq!(y, before);
+    }
+
+    /// Velocities a ghost carries: across the lid (`+y`, moving with U = 1) no-slip `2 U − u` in
+    /// the viscous term and free-slip (normal component reversed, tangential kept) in the
+    /// divergence; across a side wall at rest `−u` and `(−u_x, u_y)`; in the lid's corner the
+    /// no-slip velocity is the source's own (the average of reflecting face by face in either
+    /// order), the free-slip one both normal components reversed.
+    fn ghost_velocities_are_the_mirrors_of_their_sources<D>() {
+        let v = |a: f64, b: f64, c: f64| D::Vector::from_fn(|k| [a, b, c][k]);
+        let fluid = vec![v(0.5, 0.9, 0.5), v(0.9, 0.5, 0.5), v(0.9, 0.9, 0.5)];
+        let mut walls = ghost_walls::<D>(&fluid, 8);
+        let mut x = fluid.clone();
+        x.extend(walls.ghosts.as_ref().unwrap().park.clone());
+        walls.place_ghosts(&mut x).unwrap();
+        let u = [v(0.3, -0.2, 0.1), v(0.3, -0.2, 0.1), v(0.3, -0.2, 0.1)];
+        let mut no_slip = vec![D::Vector::ZERO; 8];
+        walls.ghost_velocities(&u, &mut no_slip);
+        let mut free_slip = vec![D::Vector::ZERO; 8];
+        walls.ghost_divergence_velocities(&u, &mut free_slip);
+        let g = walls.ghosts.as_ref().unwrap();
+        let u0 = u[0];
+        // u with the components along the axes in `axes` reversed; `lid`: 2 U added along x.
+        let flip = |axes: usize, lid: bool| {
+            D::Vector::from_fn(|a| {
+                let c = if axes & (1 << a) != 0 { -u0.get(a) } else { u0.get(a) };
+                if lid && a == 0 { c + 2.0 } else { c }
+            })
+        };
+        let all = (1 << D::DIM) - 1;
+        for k in 0..g.source.len() {
+            let (s, f) = (g.source[k], g.faces[k]);
+            let (want_ns, want_fs) = match (s, f) {
+                (0, 0b1000) | (2, 0b1000) => (flip(all, true), flip(0b10, false)),
+                (1, 0b0010) | (2, 0b0010) => (flip(all, false), flip(0b01, false)),
+                (2, 0b1010) => (u0, flip(0b11, false)),
+                (Ghosts::<D>::PARKED, 0) => (D::Vector::ZERO, D::Vector::ZERO),
+                other => panic!("unexpected ghost {other:?}"),
+            };
+            assert!((no_slip[k] - want_ns).length() < 1e-15, "slot {k}: {:?}", no_slip[k]);
+            assert!((free_slip[k] - want_fs).length() < 1e-15, "slot {k}: {:?}", free_slip[k]);
+        }
     }
 }

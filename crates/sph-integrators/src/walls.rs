@@ -24,6 +24,184 @@ pub enum WallModel {
     /// Hessian) a fluid particle sees is the same operator whose gradient corrects its velocity.
     #[default]
     DummyParticles,
+    /// Mirror ghosts of a closed box (Szewc, Pozorski & Minier 2012, Int. J. Numer. Meth. Engng
+    /// 92, 343, the walls of the paper's cavity): before every neighbour search each fluid
+    /// particle closer than the kernel support to a face of the box is mirrored across it, and
+    /// near a corner across both faces (and in 3D all three): `x_g = S (x_s − x_w) + x_w` per
+    /// face. See [`Ghosts`] for the values a ghost carries.
+    MirrorGhosts,
+}
+
+/// The mirror ghosts of [`WallModel::MirrorGhosts`]: the wall particles `first..n` are slots,
+/// each either a ghost of a fluid particle (its *source*) or parked out of every fluid
+/// particle's reach. A ghost carries (Szewc et al. 2012, §4):
+///
+/// * in the viscous term, its source's velocity reflected no-slip across the face it was
+///   mirrored across, `u_g = 2 u_face − u_s` (across two faces, a corner: `u_s`);
+/// * in the divergence and DG's `A`, the free-slip reflection: the component normal to the face
+///   reversed about the face's, `u_{g,n} = 2 u_{face,n} − u_{s,n}`, the tangential ones kept,
+///   so that a divergence-free field stays divergence-free across the wall (the no-slip
+///   reflection of the viscous term would add `2 ∂u_n/∂n` to it);
+/// * its source's pressure, `p_g = p_s + ρ_s g·(x_g − x_s)` (homogeneous Neumann `∂p/∂n = 0`
+///   at rest, the hydrostatic slope under gravity): the ghost is no unknown of the pressure
+///   equation — a fluid row's coefficient on `p_g` is added to its coefficient on `p_s`
+///   ([`fold_ghost_columns`](sph_pressure::fold_ghost_columns)), so the discrete Laplacian a
+///   fluid particle sees is the one whose gradient corrects its velocity.
+///
+/// The number of slots is fixed when the walls are built (the particle set keeps its size): a
+/// step that needs more ghosts than slots fails with [`StepError::GhostCapacity`]
+/// (crate::StepError).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ghosts<D: Dim> {
+    /// Lower corner of the box (the fluid region; its faces are the walls).
+    pub lo: D::Vector,
+    /// Upper corner of the box.
+    pub hi: D::Vector,
+    /// Velocity of each face: `face_velocity[2k]` of the face `x_k = lo_k`, `[2k + 1]` of
+    /// `x_k = hi_k` (`2 D` entries).
+    pub face_velocity: Vec<D::Vector>,
+    /// A fluid particle closer than this to a face gets a ghost across it (the kernel support).
+    pub reach: f64,
+    /// Where each slot waits while it is not a ghost: beyond the reach of every fluid particle
+    /// and of each other.
+    pub park: Vec<D::Vector>,
+    /// Source fluid particle of each slot ([`Ghosts::PARKED`] for a parked slot).
+    pub source: Vec<u32>,
+    /// Faces each slot is mirrored across: bit `2k` the face `x_k = lo_k`, bit `2k + 1` the face
+    /// `x_k = hi_k`.
+    pub faces: Vec<u8>,
+}
+
+impl<D: Dim> Ghosts<D> {
+    /// [`Ghosts::source`] of a parked slot.
+    pub const PARKED: u32 = u32::MAX;
+
+    /// The ghosts' box `[lo, hi]` with its faces' velocities, reach and `slots` slots, parked
+    /// on a lattice of spacing `1.5 reach` beside the box's `+x` face, `3 reach` beyond it.
+    pub fn new(
+        lo: D::Vector,
+        hi: D::Vector,
+        face_velocity: Vec<D::Vector>,
+        reach: f64,
+        slots: usize,
+    ) -> Self {
+        let spacing = 1.5 * reach;
+        // Columns (2D) or planes (3D) across the box's other axes.
+        let across: Vec<usize> = (1..D::DIM)
+            .map(|a| ((hi.get(a) - lo.get(a)) / spacing).floor() as usize + 1)
+            .collect();
+        let per_column: usize = across.iter().product();
+        let park = (0..slots)
+            .map(|k| {
+                let (column, mut rest) = (k / per_column, k % per_column);
+                D::Vector::from_fn(|a| {
+                    if a == 0 {
+                        hi.get(0) + 3.0 * reach + column as f64 * spacing
+                    } else {
+                        let i = rest % across[a - 1];
+                        rest /= across[a - 1];
+                        lo.get(a) + i as f64 * spacing
+                    }
+                })
+            })
+            .collect();
+        Self {
+            lo,
+            hi,
+            face_velocity,
+            reach,
+            park,
+            source: vec![Self::PARKED; slots],
+            faces: vec![0; slots],
+        }
+    }
+
+    /// The faces within reach of `x`: bit `2k` when `x_k − lo_k < reach`, bit `2k + 1` when
+    /// `hi_k − x_k < reach` (the box is wider than twice the reach, checked by the builder).
+    fn near(&self, x: D::Vector) -> u8 {
+        let mut bits = 0u8;
+        for a in 0..D::DIM {
+            if x.get(a) - self.lo.get(a) < self.reach {
+                bits |= 1 << (2 * a);
+            } else if self.hi.get(a) - x.get(a) < self.reach {
+                bits |= 1 << (2 * a + 1);
+            }
+        }
+        bits
+    }
+
+    /// How many ghosts the fluid positions `x` need: `2^m − 1` for a particle near `m` faces.
+    pub fn needed(&self, x: impl Iterator<Item = D::Vector>) -> usize {
+        x.map(|x| (1usize << self.near(x).count_ones()) - 1).sum()
+    }
+
+    /// `x` mirrored across the faces `faces`.
+    fn mirror_point(&self, mut x: D::Vector, faces: u8) -> D::Vector {
+        for a in 0..D::DIM {
+            if faces & (1 << (2 * a)) != 0 {
+                x.set(a, 2.0 * self.lo.get(a) - x.get(a));
+            }
+            if faces & (1 << (2 * a + 1)) != 0 {
+                x.set(a, 2.0 * self.hi.get(a) - x.get(a));
+            }
+        }
+        x
+    }
+
+    /// The source's velocity `u` reflected no-slip across the faces `faces`: `2 u_f − u` across
+    /// one face `f`; across several, the average over the orders of reflecting face by face
+    /// (`u ← 2 u_f − u` per face), which is `2 ū − u` for an odd number of faces (`ū` their
+    /// mean velocity) and `u` for two. One order alone would make a corner ghost's velocity
+    /// depend on which face is taken first where a moving lid meets a wall at rest.
+    fn no_slip_velocity(&self, u: D::Vector, faces: u8) -> D::Vector {
+        let m = faces.count_ones();
+        if m % 2 == 0 {
+            return u;
+        }
+        let mut mean = D::Vector::ZERO;
+        for f in 0..2 * D::DIM {
+            if faces & (1 << f) != 0 {
+                mean += self.face_velocity[f];
+            }
+        }
+        mean * (2.0 / m as f64) - u
+    }
+
+    /// The source's velocity `u` reflected free-slip across the faces `faces`: relative to each
+    /// face's velocity (tangential: a wall slides along itself) the normal component changes
+    /// sign, `u_k ← 2 u_{f,k} − u_k` along each mirrored axis `k`, the tangential ones are kept.
+    /// Divergence-free fields stay divergence-free across the face (the no-slip reflection adds
+    /// `2 ∂u_n/∂n` there).
+    fn free_slip_velocity(&self, mut u: D::Vector, faces: u8) -> D::Vector {
+        for f in 0..2 * D::DIM {
+            if faces & (1 << f) != 0 {
+                let a = f / 2;
+                u.set(a, 2.0 * self.face_velocity[f].get(a) - u.get(a));
+            }
+        }
+        u
+    }
+
+    /// Mirror of slot `k`: `−1` along the axes it was mirrored across.
+    fn mirror_axes(&self, k: usize) -> D::Vector {
+        let f = self.faces[k];
+        D::Vector::from_fn(|a| if f & (3 << (2 * a)) != 0 { -1.0 } else { 1.0 })
+    }
+
+    /// Direction into the wall of slot `k`: `−1` (lo face) or `+1` (hi face) along the axes it
+    /// was mirrored across, 0 along the others.
+    fn inward_axes(&self, k: usize) -> D::Vector {
+        let f = self.faces[k];
+        D::Vector::from_fn(|a| {
+            if f & (1 << (2 * a)) != 0 {
+                -1.0
+            } else if f & (1 << (2 * a + 1)) != 0 {
+                1.0
+            } else {
+                0.0
+            }
+        })
+    }
 }
 
 /// How the wall's no-penetration condition `u·n = u_wall·n` enters the projection: through the
@@ -95,6 +273,8 @@ pub struct Walls<D: Dim> {
     /// Thickness of the wall layers. A fluid particle deeper in wall material than this has
     /// passed through the wall: the step fails (see [`StepError::Escaped`](crate::StepError)).
     pub thickness: f64,
+    /// The mirror ghosts ([`WallModel::MirrorGhosts`]; `None` for dummy particles).
+    pub ghosts: Option<Ghosts<D>>,
 }
 
 /// Inconsistent wall description.
@@ -113,6 +293,14 @@ pub enum WallError {
     /// The particle set is invalid.
     #[error("walls: {0}")]
     Particles(#[from] sph_core::CoreError),
+    /// The fluid needs more mirror ghosts than there are wall slots.
+    #[error("walls: the fluid needs {needed} mirror ghosts, the walls have {slots} slots")]
+    GhostCapacity {
+        /// Ghosts needed.
+        needed: usize,
+        /// Slots.
+        slots: usize,
+    },
     /// A geometry box is empty or not finite, or the thickness is not positive.
     #[error("walls: a wall box is empty or not finite, or the wall thickness is not positive")]
     Box,
@@ -186,13 +374,149 @@ impl<D: Dim> Walls<D> {
     /// No-slip (viscous) wall velocity, Adami et al. (2012) Eqs. (22)–(23):
     /// `u_w = 2 u_wall − ũ_w`, `ũ_w = Σ_f u_f W_wf / Σ_f W_wf` (fluid neighbours `f` from
     /// `ctx`, whose particles are this simulation's). Writes one entry per wall particle.
+    /// Mirror ghosts carry their source's velocity reflected no-slip ([`Ghosts`]).
     pub fn no_slip_velocity<K: Kernel<D>>(
         &self,
         ctx: &SphContext<'_, D, K>,
         u: &[D::Vector],
         out: &mut [D::Vector],
     ) {
+        if self.ghosts.is_some() {
+            self.ghost_velocities(u, out);
+            return;
+        }
         self.map_shepard(ctx, u, out, |k, ut| self.velocity[k] * 2.0 - ut);
+    }
+
+    /// Each ghost slot's velocity from the fluid velocities `u` (indexed as the particles):
+    /// its source's reflected no-slip ([`Ghosts`]), 0 for a parked slot. Nothing is written
+    /// without ghosts.
+    pub fn ghost_velocities(&self, u: &[D::Vector], out: &mut [D::Vector]) {
+        let Some(g) = &self.ghosts else { return };
+        for (k, o) in out.iter_mut().enumerate() {
+            let s = g.source[k];
+            *o = if s == Ghosts::<D>::PARKED {
+                D::Vector::ZERO
+            } else {
+                g.no_slip_velocity(u[s as usize], g.faces[k])
+            };
+        }
+    }
+
+    /// As [`Walls::ghost_velocities`] with the free-slip reflection (normal component odd about
+    /// the face's, tangential even): the velocity the divergence and DG's `A` read.
+    pub(crate) fn ghost_divergence_velocities(&self, u: &[D::Vector], out: &mut [D::Vector]) {
+        let Some(g) = &self.ghosts else { return };
+        for (k, o) in out.iter_mut().enumerate() {
+            let s = g.source[k];
+            *o = if s == Ghosts::<D>::PARKED {
+                D::Vector::ZERO
+            } else {
+                g.free_slip_velocity(u[s as usize], g.faces[k])
+            };
+        }
+    }
+
+    /// Each ghost slot's value of a scalar field known on the fluid (`values[..first]`):
+    /// `values[g] = values[s] + ρ_s grad·(x_g − x_s)` for the ghost `g` of source `s` (`grad`
+    /// the prescribed `∇p/ρ`: gravity for the pressure, 0 for a potential with zero Neumann
+    /// data), 0 for a parked slot. Nothing is written without ghosts.
+    pub fn ghost_values(
+        &self,
+        x: &[D::Vector],
+        densities: &[f64],
+        grad: D::Vector,
+        values: &mut [f64],
+    ) {
+        let Some(g) = &self.ghosts else { return };
+        let nf = self.first;
+        for k in 0..g.source.len() {
+            let s = g.source[k];
+            values[nf + k] = if s == Ghosts::<D>::PARKED {
+                0.0
+            } else {
+                let s = s as usize;
+                values[s] + densities[s] * grad.dot(x[nf + k] - x[s])
+            };
+        }
+    }
+
+    /// Ghost sources and their offsets `ρ_s grad·(x_g − x_s)` for the pressure equation's
+    /// folding ([`sph_pressure::fold_ghost_columns`]); `None` without ghosts.
+    pub(crate) fn ghost_sources(&self) -> Option<&[u32]> {
+        self.ghosts.as_ref().map(|g| &g.source[..])
+    }
+
+    /// How many ghost slots the fluid positions `x` (`first` entries) need, and how many there
+    /// are; `None` without ghosts.
+    pub fn ghosts_needed(&self, x: &[D::Vector]) -> Option<(usize, usize)> {
+        self.ghosts
+            .as_ref()
+            .map(|g| (g.needed(x[..self.first].iter().copied()), g.source.len()))
+    }
+
+    /// Places the mirror ghosts of the fluid positions `x[..first]` in the wall slots
+    /// `x[first..]` (fluid particles in order, each one's faces in the order of their bits),
+    /// parks the slots left over, and sets each slot's mirror and inward direction. Returns
+    /// `Err((needed, slots))` — leaving `x` as it was — when there are too few slots. Nothing
+    /// is done without ghosts.
+    pub fn place_ghosts(&mut self, x: &mut [D::Vector]) -> Result<(), (usize, usize)> {
+        let nf = self.first;
+        let Some(g) = &mut self.ghosts else {
+            return Ok(());
+        };
+        let needed = g.needed(x[..nf].iter().copied());
+        let slots = g.source.len();
+        if needed > slots {
+            return Err((needed, slots));
+        }
+        let mut k = 0;
+        for i in 0..nf {
+            let near = g.near(x[i]);
+            // Every non-empty subset of the near faces.
+            let mut sub = near;
+            while sub != 0 {
+                x[nf + k] = g.mirror_point(x[i], sub);
+                g.source[k] = i as u32;
+                g.faces[k] = sub;
+                k += 1;
+                sub = (sub - 1) & near;
+            }
+        }
+        for j in k..slots {
+            x[nf + j] = g.park[j];
+            g.source[j] = Ghosts::<D>::PARKED;
+            g.faces[j] = 0;
+        }
+        for k in 0..slots {
+            self.mirror[k] = g.mirror_axes(k);
+            self.inward[k] = g.inward_axes(k);
+        }
+        Ok(())
+    }
+
+    /// Brings the wall slots of `particles` up to date with its fluid particles (mirror ghosts:
+    /// positions, velocities, pressures with the prescribed `∇p/ρ` `grad`); nothing for dummy
+    /// particles. Fails as [`Walls::place_ghosts`] does, leaving the particles unchanged.
+    pub fn refresh(
+        &mut self,
+        particles: &mut sph_core::ParticleSet<D>,
+        grad: D::Vector,
+    ) -> Result<(), (usize, usize)> {
+        if self.ghosts.is_none() {
+            return Ok(());
+        }
+        self.place_ghosts(&mut particles.positions)?;
+        let nf = self.first;
+        let (fluid, walls) = particles.velocities.split_at_mut(nf);
+        self.ghost_velocities(fluid, walls);
+        self.ghost_values(
+            &particles.positions,
+            &particles.densities,
+            grad,
+            &mut particles.pressures,
+        );
+        Ok(())
     }
 
     /// What the projection reads at the wall particles (see [`WallCondition`]): the velocity the
@@ -213,6 +537,16 @@ impl<D: Dim> Walls<D> {
             let s = self.mirror[k];
             D::Vector::from_fn(|a| 0.5 * (1.0 - s.get(a)) * v.get(a))
         };
+        if self.ghosts.is_some() {
+            // Mirror ghosts: the source's velocity reflected free-slip (the no-penetration
+            // condition); the pressure equation reads no Neumann data (the ghosts' columns are
+            // folded onto their sources').
+            self.ghost_divergence_velocities(u, u_out);
+            if let Some(g) = grad_out {
+                g.fill(D::Vector::ZERO);
+            }
+            return;
+        }
         self.map_shepard(ctx, u, u_out, |k, ut| match condition {
             WallCondition::Continuation => ut,
             WallCondition::Reflection => {
@@ -283,6 +617,12 @@ impl<D: Dim> Walls<D> {
         if self.first + self.velocity.len() != particles
             || self.mirror.len() != self.velocity.len()
             || self.inward.len() != self.velocity.len()
+            || self.ghosts.as_ref().is_some_and(|g| {
+                g.source.len() != self.velocity.len()
+                    || g.park.len() != self.velocity.len()
+                    || g.faces.len() != self.velocity.len()
+                    || g.face_velocity.len() != 2 * D::DIM
+            })
         {
             return Err(WallError::Count {
                 first: self.first,

@@ -48,4 +48,6 @@ pub use solver::{
     AnySolver, BiCgStab, Border, CsrSystem, GMRES_RESTART, Gmres, LinearSolver, Preconditioner,
     SolveInfo, SolveParams, SolverKind, SparseLu,
 };
-pub use walls::{MeanZeroGauge, assemble_surface_rows, assemble_wall_rows};
+pub use walls::{
+    MeanZeroGauge, assemble_surface_rows, assemble_wall_rows, fold_ghost_columns,
+};

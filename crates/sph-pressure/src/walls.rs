@@ -98,6 +98,102 @@ pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
     Ok(())
 }
 
+/// Folds the columns of mirror ghosts (particles `first_wall..n`, see
+/// `sph_integrators::Ghosts`) onto their sources': a ghost `g` of the fluid particle
+/// `s = sources[g − first_wall]` carries `p_g = p_s + c_g`, `c_g = ρ_s grad·(x_g − x_s)` with
+/// `grad` the prescribed `∇p/ρ` (Szewc, Pozorski & Minier 2012: the mirror particle has its
+/// source's pressure; gravity adds the hydrostatic slope), so in a fluid row
+///
+/// ```text
+/// Σ_j a_ij p_j = b_i   becomes   Σ_{j fluid} a_ij p_j + Σ_g a_ig p_{s(g)} = b_i − Σ_g a_ig c_g.
+/// ```
+///
+/// The source is in every row its ghost is in: mirrored across the faces of a box, `x_g` is
+/// at least as far from a fluid particle as `x_s` along every axis. (A row where it is not —
+/// a particle already past a wall — keeps the ghost's column, whose pressure the solve then
+/// takes as 0.) The ghost rows become `p_g = 0`; the caller sets `p_g = p_s + c_g` after the
+/// solve. A parked slot (`sources[k] = u32::MAX`) is never a fluid particle's neighbour; its
+/// row is `p = 0` too.
+pub fn fold_ghost_columns<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    first_wall: usize,
+    sources: &[u32],
+    densities: &[f64],
+    grad: D::Vector,
+    matrix: &mut CsrMatrix,
+    rhs: &mut [f64],
+) -> Result<(), PressureError> {
+    let nl = ctx.neighbors;
+    let n = ctx.len();
+    assert!(first_wall <= n && densities.len() == n && rhs.len() == n);
+    assert_eq!(sources.len(), n - first_wall);
+    assert_eq!(matrix.values.len(), nl.nnz());
+    let offsets = nl.offsets();
+    // The right-hand side first, from the coefficients before they move: b_i −= Σ_g a_ig c_g.
+    if grad != D::Vector::ZERO {
+        let values = &matrix.values;
+        rhs[..first_wall]
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(i, r)| {
+                let (start, cols) = (offsets[i], nl.row(i));
+                for (pos, &j) in cols.iter().enumerate() {
+                    let j = j as usize;
+                    if j < first_wall {
+                        continue;
+                    }
+                    let s = sources[j - first_wall];
+                    if s == u32::MAX || cols.binary_search(&s).is_err() {
+                        continue;
+                    }
+                    let s = s as usize;
+                    let c = densities[s] * grad.dot(ctx.positions[j] - ctx.positions[s]);
+                    *r -= values[start + pos] * c;
+                }
+            });
+    }
+    let (fluid_values, wall_values) = matrix.values.split_at_mut(offsets[first_wall]);
+    // Fluid rows: a_{i s(g)} += a_ig, a_ig = 0 (each row touches only its own entries).
+    crate::csr::for_each_row_mut(&offsets[..=first_wall], fluid_values, &|i, row| {
+        let cols = nl.row(i);
+        for pos in 0..row.len() {
+            let j = cols[pos] as usize;
+            if j < first_wall || row[pos] == 0.0 {
+                continue;
+            }
+            let s = sources[j - first_wall];
+            if s == u32::MAX {
+                continue;
+            }
+            if let Ok(at) = cols.binary_search(&s) {
+                row[at] += row[pos];
+                row[pos] = 0.0;
+            }
+        }
+    });
+    let base = offsets[first_wall];
+    // Ghost and parked rows: p = 0.
+    for (k, r) in rhs[first_wall..].iter_mut().enumerate() {
+        *r = 0.0;
+        let w = first_wall + k;
+        let row = &mut wall_values[offsets[w] - base..offsets[w + 1] - base];
+        row.fill(0.0);
+        let diag = nl
+            .row(w)
+            .binary_search(&(w as u32))
+            .expect("neighbour rows contain the particle");
+        row[diag] = 1.0;
+    }
+    if let Some(row) = rhs[..first_wall].iter().position(|v| !v.is_finite()) {
+        return Err(PressureError::NonFinite {
+            what: "ghost-folded right-hand side",
+            row,
+        });
+    }
+    Ok(())
+}
+
 /// Gauge of a pressure equation without Dirichlet rows (a closed domain: the pressure is defined
 /// up to a constant). The system `M p = b` is bordered with the constraint `Σ_{i∈G} p_i = 0`
 /// over the gauge rows `G` (the fluid particles) and a Lagrange multiplier `λ` added to those

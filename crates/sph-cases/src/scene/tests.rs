@@ -105,12 +105,35 @@ fn bad_cavity_values_name_the_key() {
             "effects.viscosity",
         ),
         ("dim = 2", "dim = 4", "`dim`"),
+        (
+            "reynolds = 100",
+            "reynolds = 100\nwall_model = \"ghost\"\nwall_condition = \"reflection\"",
+            "cavity.wall_model",
+        ),
+        (
+            "reynolds = 100",
+            "reynolds = 100\nwall_model = \"mirror\"",
+            "wall_model",
+        ),
     ] {
         let e = Scene::parse("cav.toml", &CAVITY.replace(from, to))
             .unwrap_err()
             .to_string();
         assert!(e.contains(key), "{from} -> {e}");
     }
+    // Ghost walls with gravity (they would let a fluid at rest fall).
+    let ghost = CAVITY.replace("reynolds = 100", "reynolds = 100\nwall_model = \"ghost\"");
+    assert!(Scene::parse("c", &ghost).is_ok());
+    let e = Scene::parse(
+        "c",
+        &ghost.replace(
+            "shifting = { coefficient = 2.0 }",
+            "shifting = { coefficient = 2.0 }\ngravity = [0.0, -9.81, 0.0]",
+        ),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("cavity.wall_model") && e.contains("gravity"), "{e}");
     let e = Scene::parse("c", &CAVITY.replace("[cavity]\nreynolds = 100\n", ""))
         .unwrap_err()
         .to_string();
