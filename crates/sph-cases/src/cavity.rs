@@ -21,15 +21,13 @@
 //!   point u(0.4531) are excluded: suspected misprints; points on the walls are excluded: they are boundary conditions);
 //! * the steady-state time from the kinetic energy ([`steady_time`]).
 
+use crate::CavityWallModel;
 use crate::blocks::{FluidBlock, FluidShape, LatticeKind, WallBlock, WallKind, WallShape};
 use crate::case::{Case, Column, Finish, Results, Setup, Table};
 use crate::reference::References;
 use crate::{CaseError, Check, Scene};
 use sph_core::{Dim, VectorOps};
-use crate::CavityWallModel;
-use sph_integrators::{
-    Ghosts, SchemeKind, Simulation, StepReport, Viscosity, WallModel, Walls,
-};
+use sph_integrators::{Ghosts, SchemeKind, Simulation, StepReport, Viscosity, WallModel, Walls};
 use sph_kernels::Kernel;
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
 use sph_operators::{SphContext, density_at_points};

@@ -46,6 +46,6 @@ pub use case::{Case, Column, Finish, Results, Setup, Table};
 pub use check::{Check, Criterion};
 pub use error::CaseError;
 pub use scene::{
-    CaseKind, CavitySpec, CavityWallModel, DgHessianChoice, EffectsSpec, Estimate, FLOW_DENSITY_RELAXATION,
-    QuickOverrides, Scene, ShiftingSpec,
+    CaseKind, CavitySpec, CavityWallModel, DgHessianChoice, EffectsSpec, Estimate,
+    FLOW_DENSITY_RELAXATION, QuickOverrides, Scene, ShiftingSpec,
 };

@@ -533,9 +533,7 @@ fn projection_passes<D: Dim>(
             .iter()
             .zip(&sim.buf.disp)
             .map(|(x, d)| *x + *d);
-        w.ghosts
-            .as_ref()
-            .map(|g| (g.needed(end), w.velocity.len()))
+        w.ghosts.as_ref().map(|g| (g.needed(end), w.velocity.len()))
     }) && needed > slots
     {
         return Err(StepError::GhostCapacity {

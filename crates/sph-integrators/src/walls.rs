@@ -49,8 +49,8 @@ pub enum WallModel {
 ///   fluid particle sees is the one whose gradient corrects its velocity.
 ///
 /// The number of slots is fixed when the walls are built (the particle set keeps its size): a
-/// step that needs more ghosts than slots fails with [`StepError::GhostCapacity`]
-/// (crate::StepError).
+/// step that needs more ghosts than slots fails with
+/// [`StepError::GhostCapacity`](crate::StepError::GhostCapacity).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Ghosts<D: Dim> {
     /// Lower corner of the box (the fluid region; its faces are the walls).
@@ -155,7 +155,7 @@ impl<D: Dim> Ghosts<D> {
     /// depend on which face is taken first where a moving lid meets a wall at rest.
     fn no_slip_velocity(&self, u: D::Vector, faces: u8) -> D::Vector {
         let m = faces.count_ones();
-        if m % 2 == 0 {
+        if m.is_multiple_of(2) {
             return u;
         }
         let mut mean = D::Vector::ZERO;

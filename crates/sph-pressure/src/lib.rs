@@ -48,6 +48,4 @@ pub use solver::{
     AnySolver, BiCgStab, Border, CsrSystem, GMRES_RESTART, Gmres, LinearSolver, Preconditioner,
     SolveInfo, SolveParams, SolverKind, SparseLu,
 };
-pub use walls::{
-    MeanZeroGauge, assemble_surface_rows, assemble_wall_rows, fold_ghost_columns,
-};
+pub use walls::{MeanZeroGauge, assemble_surface_rows, assemble_wall_rows, fold_ghost_columns};

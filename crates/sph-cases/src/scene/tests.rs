@@ -133,7 +133,10 @@ fn bad_cavity_values_name_the_key() {
     )
     .unwrap_err()
     .to_string();
-    assert!(e.contains("cavity.wall_model") && e.contains("gravity"), "{e}");
+    assert!(
+        e.contains("cavity.wall_model") && e.contains("gravity"),
+        "{e}"
+    );
     let e = Scene::parse("c", &CAVITY.replace("[cavity]\nreynolds = 100\n", ""))
         .unwrap_err()
         .to_string();

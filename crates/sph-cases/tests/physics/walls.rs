@@ -227,7 +227,11 @@ fn ghost_cavity_steps<D: Dim>(threads: usize) -> Vec<Vec<u64>> {
         .unwrap();
     pool.install(|| {
         let mut out = Vec::new();
-        for kind in [SchemeKind::Euler, SchemeKind::PredictorCorrector, SchemeKind::Dg] {
+        for kind in [
+            SchemeKind::Euler,
+            SchemeKind::PredictorCorrector,
+            SchemeKind::Dg,
+        ] {
             let mut sim = cavity::setup::<D>(&s).unwrap().simulation().unwrap();
             let mut scheme = Scheme::new(kind);
             for _ in 0..10 {
