@@ -35,9 +35,9 @@ pub enum WallModel {
 /// The mirror ghosts of [`WallModel::MirrorGhosts`]: the wall particles `first..n` are slots,
 /// each either a ghost of a fluid particle (its *source*) or parked out of every fluid
 /// particle's reach. A ghost carries its source's values mirrored, as Szewc et al.'s mirror
-/// particles do; which mirror each operator reads is ours (the no-slip mirror in the divergence
-/// took the Re 100 cavity at 20² from 0.007 to 0.028 off Ghia's centrelines, the free-slip one
-/// to 0.009–0.023):
+/// particles do; which mirror each operator reads is ours (the Re 100 cavity at 20², RMS of its
+/// centrelines off Ghia's: 0.023–0.031 with the no-slip mirror in the divergence, 0.009–0.023
+/// with the free-slip one, 0.006–0.007 with the dummy walls):
 ///
 /// * in the viscous term, its source's velocity reflected no-slip across the face it was
 ///   mirrored across, `u_g = 2 u_face − u_s` (across two faces, a corner: `u_s`);
