@@ -395,27 +395,29 @@ impl<D: Dim> Walls<D> {
     /// its source's reflected no-slip ([`Ghosts`]), 0 for a parked slot. Nothing is written
     /// without ghosts.
     pub fn ghost_velocities(&self, u: &[D::Vector], out: &mut [D::Vector]) {
-        let Some(g) = &self.ghosts else { return };
-        for (k, o) in out.iter_mut().enumerate() {
-            let s = g.source[k];
-            *o = if s == Ghosts::<D>::PARKED {
-                D::Vector::ZERO
-            } else {
-                g.no_slip_velocity(u[s as usize], g.faces[k])
-            };
-        }
+        self.map_ghosts(u, out, Ghosts::no_slip_velocity);
     }
 
     /// As [`Walls::ghost_velocities`] with the free-slip reflection (normal component odd about
     /// the face's, tangential even): the velocity the divergence and DG's `A` read.
     pub(crate) fn ghost_divergence_velocities(&self, u: &[D::Vector], out: &mut [D::Vector]) {
+        self.map_ghosts(u, out, Ghosts::free_slip_velocity);
+    }
+
+    /// `out[k] = mirror(ghosts, u[source], faces)` for each ghost slot `k`, 0 for a parked one.
+    fn map_ghosts(
+        &self,
+        u: &[D::Vector],
+        out: &mut [D::Vector],
+        mirror: impl Fn(&Ghosts<D>, D::Vector, u8) -> D::Vector,
+    ) {
         let Some(g) = &self.ghosts else { return };
         for (k, o) in out.iter_mut().enumerate() {
             let s = g.source[k];
             *o = if s == Ghosts::<D>::PARKED {
                 D::Vector::ZERO
             } else {
-                g.free_slip_velocity(u[s as usize], g.faces[k])
+                mirror(g, u[s as usize], g.faces[k])
             };
         }
     }
