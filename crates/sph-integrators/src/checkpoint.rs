@@ -397,6 +397,12 @@ impl<D: Dim> Simulation<D> {
         self.order.index_slots();
         self.t = checkpoint.t;
         self.step = checkpoint.step;
+        // Mirror ghosts: their sources follow the restored fluid (the values they get are the
+        // checkpoint's, which were placed the same way).
+        self.refresh_walls().map_err(|e| RestoreError::Invalid {
+            what: "ghost walls",
+            detail: e.to_string(),
+        })?;
         self.invalidate_solver_setup();
         Ok(())
     }
