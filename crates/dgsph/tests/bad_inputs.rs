@@ -1294,6 +1294,44 @@ velocity_field",
     ] {
         c.push(scene_case(name, base, from, to, expect));
     }
+    // Mirror-ghost walls: with gravity, or in a cavity too coarse to mirror (the kernel support
+    // over half the cavity: found when the run builds it).
+    c.push(scene_case(
+        "ghost walls with gravity",
+        CAVITY,
+        "reynolds = 100\n",
+        "reynolds = 100\nwall_model = \"ghost\"\n",
+        "cavity.wall_model",
+    ));
+    c.last_mut().unwrap().scene = Some(
+        CAVITY
+            .replacen(
+                "reynolds = 100\n",
+                "reynolds = 100\nwall_model = \"ghost\"\n",
+                1,
+            )
+            .replacen(
+                "shifting = { coefficient = 2.0 }\n",
+                "shifting = { coefficient = 2.0 }\ngravity = [0.0, -9.81, 0.0]\n",
+                1,
+            ),
+    );
+    let mut coarse = scene_case(
+        "ghost walls in a coarse cavity",
+        CAVITY,
+        "dx = 0.1\n",
+        "dx = 0.25\n",
+        "cavity.wall_model",
+    );
+    coarse.scene = coarse.scene.map(|s| {
+        s.replacen(
+            "reynolds = 100\n",
+            "reynolds = 100\nwall_model = \"ghost\"\n",
+            1,
+        )
+    });
+    coarse.args = vec!["run".into()];
+    c.push(coarse);
     let mut tiny = scene_case("--dx 1e-300", TANK, "dx", "dx", "too small to count");
     tiny.args = vec!["run".into(), "--dx".into(), "1e-300".into()];
     c.push(tiny);
