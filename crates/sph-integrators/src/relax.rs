@@ -61,6 +61,8 @@ impl<D: Dim> Simulation<D> {
         let free = self.engine.config.free_surface.is_some();
         let mut phases = PhaseTimes::default();
         for it in 0..iterations {
+            // Mirror ghosts follow the fluid as it moves.
+            self.refresh_walls()?;
             let p = &self.particles;
             prepare(
                 &mut self.engine,
@@ -114,6 +116,7 @@ impl<D: Dim> Simulation<D> {
                 }
             }
         }
+        self.refresh_walls()?;
         Ok(report)
     }
 }

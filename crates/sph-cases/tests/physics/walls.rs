@@ -262,3 +262,36 @@ sph_core::dim_tests! {
         assert!(one[0].iter().any(|b| f64::from_bits(*b) != 0.0));
     }
 }
+
+sph_core::dim_tests! {
+    /// Packing the start (`[start] relax_iterations`, `Simulation::relax`) moves the fluid; the
+    /// ghosts must still mirror it afterwards (placed anew from the packed fluid, they land
+    /// exactly where they are).
+    fn ghost_walls_follow_the_packed_start<D>() {
+        let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
+        let s = Scene::parse(
+            "ghost",
+            &format!(
+                "case = \"lid_driven_cavity\"\ndim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 0.01\nt_end = 1.0\nschemes = [\"euler\"]\n[cavity]\nreynolds = 100\nwall_model = \"ghost\"\n",
+                D::DIM
+            ),
+        )
+        .unwrap();
+        let mut c = cavity::setup::<D>(&s).unwrap();
+        let nf = c.walls.as_ref().unwrap().first;
+        // Disorder to pack: every fluid particle moved by a tenth of a spacing.
+        for (i, x) in c.particles.positions[..nf].iter_mut().enumerate() {
+            let a = i as f64 * 0.7;
+            *x += D::Vector::from_fn(|k| 0.1 * dx * (a + k as f64).sin());
+        }
+        let mut sim = c.simulation().unwrap();
+        let before = sim.particles.positions.clone();
+        sim.relax(5, dx).unwrap();
+        let x = &sim.particles.positions;
+        assert!(x[..nf] != before[..nf], "the packing moved nothing");
+        let mut placed = x.clone();
+        let mut walls = sim.walls().unwrap().clone();
+        walls.place_ghosts(&mut placed).unwrap();
+        assert!(placed == *x, "the ghosts do not mirror the packed fluid");
+    }
+}
