@@ -529,11 +529,12 @@ fn projection_passes<D: Dim>(
     // Mirror ghosts at the end positions: fail before anything is written if there are too
     // few slots for them.
     if let Some((needed, slots)) = sim.engine.walls.as_ref().and_then(|w| {
-        let end = p.positions[..nf]
-            .iter()
-            .zip(&sim.buf.disp)
-            .map(|(x, d)| *x + *d);
-        w.ghosts.as_ref().map(|g| (g.needed(end), w.velocity.len()))
+        w.ghosts_needed(
+            p.positions[..nf]
+                .iter()
+                .zip(&sim.buf.disp)
+                .map(|(x, d)| *x + *d),
+        )
     }) && needed > slots
     {
         return Err(StepError::GhostCapacity {

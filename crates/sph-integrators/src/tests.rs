@@ -784,7 +784,10 @@ sph_core::dim_tests! {
         let mut walls = ghost_walls::<D>(&fluid, needed + 5);
         let mut x = fluid.clone();
         x.extend(walls.ghosts.as_ref().unwrap().park.clone());
-        assert_eq!(walls.ghosts_needed(&x), Some((needed, needed + 5)));
+        assert_eq!(
+            walls.ghosts_needed(fluid.iter().copied()),
+            Some((needed, needed + 5))
+        );
         walls.place_ghosts(&mut x).unwrap();
         let g = walls.ghosts.as_ref().unwrap();
         let nf = fluid.len();
@@ -863,4 +866,20 @@ sph_core::dim_tests! {
             assert!((free_slip[k] - want_fs).length() < 1e-15, "slot {k}: {:?}", free_slip[k]);
         }
     }
+}
+
+/// Walls whose model and ghosts disagree are refused.
+#[test]
+fn ghosts_belong_to_the_mirror_ghost_model() {
+    let fluid = vec![<D2 as Dim>::Vector::from_fn(|_| 0.5)];
+    let mut walls = ghost_walls::<D2>(&fluid, 2);
+    walls.model = WallModel::DummyParticles;
+    let mut x = fluid.clone();
+    x.extend(walls.ghosts.as_ref().unwrap().park.clone());
+    let p = ParticleSet::<D2>::from_positions(x, 0.01, 1.0);
+    let config = SimConfig::new(KernelKind::WendlandC2, 0.1);
+    assert!(matches!(
+        Simulation::with_walls(p, config, walls),
+        Err(WallError::Model)
+    ));
 }

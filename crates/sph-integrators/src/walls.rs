@@ -296,6 +296,10 @@ pub enum WallError {
     /// The particle set is invalid.
     #[error("walls: {0}")]
     Particles(#[from] sph_core::CoreError),
+    /// The model is [`WallModel::MirrorGhosts`] without [`Walls::ghosts`], or ghosts are given
+    /// for another model.
+    #[error("walls: mirror ghosts are given exactly when the model is MirrorGhosts")]
+    Model,
     /// The fluid needs more mirror ghosts than there are wall slots.
     #[error("walls: the fluid needs {needed} mirror ghosts, the walls have {slots} slots")]
     GhostCapacity {
@@ -446,18 +450,16 @@ impl<D: Dim> Walls<D> {
         }
     }
 
-    /// Ghost sources and their offsets `ρ_s grad·(x_g − x_s)` for the pressure equation's
-    /// folding ([`sph_pressure::fold_ghost_columns`]); `None` without ghosts.
+    /// Each ghost slot's source, for the pressure equation's folding
+    /// ([`sph_pressure::fold_ghost_columns`]); `None` without ghosts.
     pub(crate) fn ghost_sources(&self) -> Option<&[u32]> {
         self.ghosts.as_ref().map(|g| &g.source[..])
     }
 
-    /// How many ghost slots the fluid positions `x` (`first` entries) need, and how many there
-    /// are; `None` without ghosts.
-    pub fn ghosts_needed(&self, x: &[D::Vector]) -> Option<(usize, usize)> {
-        self.ghosts
-            .as_ref()
-            .map(|g| (g.needed(x[..self.first].iter().copied()), g.source.len()))
+    /// How many ghost slots the fluid positions `x` need, and how many there are; `None`
+    /// without ghosts.
+    pub fn ghosts_needed(&self, x: impl Iterator<Item = D::Vector>) -> Option<(usize, usize)> {
+        self.ghosts.as_ref().map(|g| (g.needed(x), g.source.len()))
     }
 
     /// Places the mirror ghosts of the fluid positions `x[..first]` in the wall slots
@@ -619,6 +621,9 @@ impl<D: Dim> Walls<D> {
     }
 
     pub(crate) fn check(&self, particles: usize) -> Result<(), WallError> {
+        if (self.model == WallModel::MirrorGhosts) != self.ghosts.is_some() {
+            return Err(WallError::Model);
+        }
         if self.first + self.velocity.len() != particles
             || self.mirror.len() != self.velocity.len()
             || self.inward.len() != self.velocity.len()
