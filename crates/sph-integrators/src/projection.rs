@@ -303,14 +303,18 @@ pub(crate) fn project<D: Dim>(
     }
     // No Dirichlet row: a closed domain, pressure defined up to a constant → mean-zero gauge.
     let clock = Instant::now();
-    let solve = if e.dirichlet.iter().any(|d| *d) {
-        e.gauge.last_multiplier = 0.0;
-        e.solver.solve(&system, pressures, &e.config.solve)
-    } else {
+    let closed = !e.dirichlet.iter().any(|d| *d);
+    let solve = if closed {
         e.gauge
             .solve(&mut e.solver, &system, nf, pressures, &e.config.solve)
+    } else {
+        e.gauge.last_multiplier = 0.0;
+        e.solver.solve(&system, pressures, &e.config.solve)
     }
     .map_err(|source| StepError::Solve { step, t, source })?;
+    if closed && e.config.gradient == sph_operators::GradientForm::Symmetric {
+        lift_to_non_negative(pressures, nf);
+    }
     let total = clock.elapsed().as_secs_f64();
     phases.add_seconds(Phase::PrecondSetup, solve.setup_seconds);
     phases.add_seconds(Phase::Solve, total - solve.setup_seconds);
@@ -633,4 +637,25 @@ pub(crate) fn det_f_stats<D: Dim>(
 /// First particle with a non-finite entry in `v`, if any.
 pub(crate) fn first_non_finite<V: VectorOps>(v: &[V]) -> Option<usize> {
     v.iter().position(|x| !x.is_finite())
+}
+
+/// Adds one constant to every pressure (fluid and wall particles) so that the lowest fluid
+/// pressure is 0. In a closed domain the pressure equation fixes `p` only up to a constant
+/// (solved with a mean-zero gauge), and the projection's velocities do not depend on it — except
+/// through the symmetric gradient `Σ_j V_j (p_i + p_j) ∇W_ij`, which differs from the
+/// difference form by `2 p_i Σ_j V_j ∇W_ij`. That term pushes a particle away from its
+/// neighbours where `p_i > 0` and pulls it towards them where `p_i < 0` (the tensile
+/// instability): a sealed tank at rest under gravity, mean-zero gauge, has `p < 0` in its upper
+/// half and blows up within 0.23 s; lifted, every scheme holds it (`docs/physics.md`, "The
+/// pressure level of a closed domain").
+fn lift_to_non_negative(pressures: &mut [f64], nf: usize) {
+    let lowest = pressures[..nf]
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    if lowest.is_finite() {
+        for p in pressures.iter_mut() {
+            *p -= lowest;
+        }
+    }
 }
