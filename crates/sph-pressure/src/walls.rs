@@ -32,10 +32,7 @@ pub fn assemble_wall_rows<D: Dim, K: Kernel<D>>(
     rhs: &mut [f64],
 ) -> Result<(), PressureError> {
     let nl = ctx.neighbors;
-    let n = ctx.len();
-    assert!(first_wall <= n && densities.len() == n && rhs.len() == n);
-    assert_eq!(wall_gradient.len(), n - first_wall);
-    assert_eq!(matrix.values.len(), nl.nnz());
+    check_wall_block(ctx, first_wall, densities, wall_gradient.len(), matrix, rhs);
     // Row w: −W_wf / Σ_f W_wf on the fluid neighbours f, 1 on the diagonal.
     for_each_row_mut(nl.offsets(), &mut matrix.values, &|w, row| {
         if w < first_wall {
@@ -124,10 +121,7 @@ pub fn fold_ghost_columns<D: Dim, K: Kernel<D>>(
     rhs: &mut [f64],
 ) -> Result<(), PressureError> {
     let nl = ctx.neighbors;
-    let n = ctx.len();
-    assert!(first_wall <= n && densities.len() == n && rhs.len() == n);
-    assert_eq!(sources.len(), n - first_wall);
-    assert_eq!(matrix.values.len(), nl.nnz());
+    check_wall_block(ctx, first_wall, densities, sources.len(), matrix, rhs);
     let offsets = nl.offsets();
     // The right-hand side first, from the coefficients before they move: b_i −= Σ_g a_ig c_g.
     if grad != D::Vector::ZERO {
@@ -192,6 +186,23 @@ pub fn fold_ghost_columns<D: Dim, K: Kernel<D>>(
         });
     }
     Ok(())
+}
+
+/// The shape every assembler of the wall block expects: particles `first_wall..n` are the walls
+/// (`per_wall` entries, one per wall particle), one density and right-hand side per particle,
+/// the matrix on the neighbour pattern.
+fn check_wall_block<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    first_wall: usize,
+    densities: &[f64],
+    per_wall: usize,
+    matrix: &CsrMatrix,
+    rhs: &[f64],
+) {
+    let n = ctx.len();
+    assert!(first_wall <= n && densities.len() == n && rhs.len() == n);
+    assert_eq!(per_wall, n - first_wall);
+    assert_eq!(matrix.values.len(), ctx.neighbors.nnz());
 }
 
 /// Gauge of a pressure equation without Dirichlet rows (a closed domain: the pressure is defined

@@ -30,6 +30,20 @@ fn one_projection<D: Dim>(
     projection_with::<D>(dx, dt, condition, "dummy", init)
 }
 
+/// A unit lid-driven cavity scene in `D` dimensions (Euler, Wendland C2, `t_end = 1`): `top`
+/// holds the top-level keys after `dx` (at least `dt`), `cavity` the `[cavity]` table's lines,
+/// `tail` any further tables.
+fn cavity_scene<D: Dim>(dx: f64, top: &str, cavity: &str, tail: &str) -> Scene {
+    Scene::parse(
+        "walls",
+        &format!(
+            "case = \"lid_driven_cavity\"\ndim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\nt_end = 1.0\nschemes = [\"euler\"]\n{top}[cavity]\n{cavity}{tail}",
+            D::DIM
+        ),
+    )
+    .unwrap()
+}
+
 /// [`one_projection`] with the cavity's `wall_model` (`"dummy"` or `"ghost"`).
 #[allow(clippy::type_complexity)]
 fn projection_with<D: Dim>(
@@ -39,14 +53,12 @@ fn projection_with<D: Dim>(
     model: &str,
     init: Init,
 ) -> (Vec<D::Vector>, Vec<D::Vector>, Vec<D::Vector>) {
-    let s = Scene::parse(
-        "walls",
-        &format!(
-            "case = \"lid_driven_cavity\"\ndim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = {dt}\nt_end = 1.0\nschemes = [\"euler\"]\nsolver_tolerance = 1e-9\n[cavity]\nreynolds = 1e9\nwall_model = \"{model}\"\n",
-            D::DIM
-        ),
-    )
-    .unwrap();
+    let s = cavity_scene::<D>(
+        dx,
+        &format!("dt = {dt}\nsolver_tolerance = 1e-9\n"),
+        &format!("reynolds = 1e9\nwall_model = \"{model}\"\n"),
+        "",
+    );
     let mut c = cavity::setup::<D>(&s).unwrap();
     let walls = c.walls.as_mut().unwrap();
     walls.condition = condition;
@@ -213,14 +225,12 @@ sph_core::dim_tests! {
 /// renumbered every 3 steps, on `threads` threads: the final positions, velocities and pressures.
 fn ghost_cavity_steps<D: Dim>(threads: usize) -> Vec<Vec<u64>> {
     let dx = if D::DIM == 2 { 0.025 } else { 0.0625 };
-    let s = Scene::parse(
-        "ghost",
-        &format!(
-            "case = \"lid_driven_cavity\"\ndim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 0.01\nt_end = 1.0\nschemes = [\"euler\"]\nsolver_tolerance = 1e-8\nreorder_every = 3\n[cavity]\nreynolds = 100\nwall_model = \"ghost\"\n[effects]\nshifting = {{ coefficient = 2.0 }}\n",
-            D::DIM
-        ),
-    )
-    .unwrap();
+    let s = cavity_scene::<D>(
+        dx,
+        "dt = 0.01\nsolver_tolerance = 1e-8\nreorder_every = 3\n",
+        "reynolds = 100\nwall_model = \"ghost\"\n",
+        "[effects]\nshifting = { coefficient = 2.0 }\n",
+    );
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -269,14 +279,7 @@ sph_core::dim_tests! {
     /// exactly where they are).
     fn ghost_walls_follow_the_packed_start<D>() {
         let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
-        let s = Scene::parse(
-            "ghost",
-            &format!(
-                "case = \"lid_driven_cavity\"\ndim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 0.01\nt_end = 1.0\nschemes = [\"euler\"]\n[cavity]\nreynolds = 100\nwall_model = \"ghost\"\n",
-                D::DIM
-            ),
-        )
-        .unwrap();
+        let s = cavity_scene::<D>(dx, "dt = 0.01\n", "reynolds = 100\nwall_model = \"ghost\"\n", "");
         let mut c = cavity::setup::<D>(&s).unwrap();
         let nf = c.walls.as_ref().unwrap().first;
         // Disorder to pack: every fluid particle moved by a tenth of a spacing.
