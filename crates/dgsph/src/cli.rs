@@ -295,6 +295,7 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
         match config.gradient {
             sph_operators::GradientForm::Difference => "difference Σ V_j (p_j − p_i) ∇W_ij",
             sph_operators::GradientForm::Symmetric => "symmetric Σ V_j (p_i + p_j) ∇W_ij",
+            sph_operators::GradientForm::Adjoint => "adjoint Σ V_j (p_i L_i + p_j L_j) ∇W_ij",
         },
         if config.renormalise { "" } else { "not " },
         if config.consistent_laplacian {

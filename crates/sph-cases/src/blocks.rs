@@ -371,6 +371,9 @@ pub enum GradientChoice {
     /// `Σ_j V_j (p_i + p_j) ∇W_ij`: without renormalisation the negative adjoint of the
     /// divergence, so the projection does not create kinetic energy.
     Symmetric,
+    /// `Σ_j V_j (p_i L_i + p_j L_j) ∇W_ij`: the negative adjoint of the renormalised
+    /// divergence (needs `renormalise`).
+    Adjoint,
 }
 
 /// `[pressure]`: the discrete operators of the projection. Defaults depend on the case: the

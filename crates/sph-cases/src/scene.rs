@@ -507,6 +507,7 @@ impl Scene {
         config.gradient = match gradient {
             GradientChoice::Difference => sph_operators::GradientForm::Difference,
             GradientChoice::Symmetric => sph_operators::GradientForm::Symmetric,
+            GradientChoice::Adjoint => sph_operators::GradientForm::Adjoint,
         };
         config.renormalise = self.pressure.renormalise.unwrap_or(!flow);
         config.consistent_laplacian = self.pressure.consistent_laplacian.unwrap_or(false);

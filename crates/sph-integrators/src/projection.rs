@@ -312,7 +312,7 @@ pub(crate) fn project<D: Dim>(
         e.solver.solve(&system, pressures, &e.config.solve)
     }
     .map_err(|source| StepError::Solve { step, t, source })?;
-    if closed && e.config.gradient == sph_operators::GradientForm::Symmetric {
+    if closed && e.config.gradient != sph_operators::GradientForm::Difference {
         lift_to_non_negative(pressures, nf);
     }
     let total = clock.elapsed().as_secs_f64();

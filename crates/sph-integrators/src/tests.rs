@@ -545,9 +545,10 @@ sph_core::dim_tests! {
     /// Spray thrown over an open tank's rim leaves the domain: the test drop in a container
     /// `[-1, 6]^D` open along the last axis (walls 0.5 thick), one of its particles past the
     /// left wall's layers below the rim (x₀ = −2, moving at 3 per unit time), one just above the
-    /// rim beside the tank and falling below it in this step. The step does not fail (the
-    /// second would end 1 deep in "wall material"), neither is counted as a penetration, the
-    /// first stays where it is and both end at rest.
+    /// opening and moving over the rim beside it in this step (x₀ = −0.9995, at −10 per unit
+    /// time; falling from there it would land on the wall layers' top). Neither is counted as a
+    /// penetration, the first stays where it is, the second stays above the rim beside the
+    /// opening, and both end at rest.
     fn spray_over_an_open_rim_leaves_the_domain_and_is_held<D>() {
         let top = D::DIM - 1;
         let mut geometry = crate::WallGeometry::closed_box(
@@ -560,8 +561,8 @@ sph_core::dim_tests! {
         let out = D::Vector::from_fn(|c| if c == 0 { -2.0 } else { 0.0 });
         p.positions[0] = out;
         p.velocities[0] = D::Vector::from_fn(|c| if c == 0 { 3.0 } else { 0.0 });
-        p.positions[1] = D::Vector::from_fn(|c| if c == 0 { -2.0 } else if c == top { 6.0005 } else { 0.0 });
-        p.velocities[1] = D::Vector::from_fn(|c| if c == top { -10.0 } else { 0.0 });
+        p.positions[1] = D::Vector::from_fn(|c| if c == 0 { -0.9995 } else if c == top { 6.0005 } else { 0.0 });
+        p.velocities[1] = D::Vector::from_fn(|c| if c == 0 { -10.0 } else { 0.0 });
         for kind in [SchemeKind::Euler, SchemeKind::PredictorCorrector, SchemeKind::Dg] {
             let r = Scheme::new(kind).step(&mut sim, 1e-4).unwrap();
             assert_eq!(r.wall_penetrations, 0, "{}", D::NAME);
@@ -569,7 +570,7 @@ sph_core::dim_tests! {
         let x = &sim.particles.positions;
         let slot = |id: usize| sim.order.slots[id] as usize;
         assert_eq!(x[slot(0)], out, "{}", D::NAME);
-        assert!(x[slot(1)].get(top) < 6.0, "{}", D::NAME);
+        assert!(x[slot(1)].get(0) < -1.0 && x[slot(1)].get(top) > 6.0, "{}", D::NAME);
         for id in [0, 1] {
             assert_eq!(sim.particles.velocities[slot(id)], D::Vector::ZERO, "{}", D::NAME);
         }

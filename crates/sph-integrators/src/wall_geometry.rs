@@ -84,6 +84,18 @@ impl<D: Dim> WallBox<D> {
             .fold(0.0, f64::max)
     }
 
+    /// Container: whether `x` lies past the plane of an open face but outside the face itself
+    /// (beside the opening along another axis): above the rim of an open tank, over its wall
+    /// layers or further out.
+    fn over_rim(&self, x: D::Vector) -> bool {
+        (0..D::DIM).any(|k| {
+            let past = (x.get(k) < self.lo.get(k) && !self.closed(k, false))
+                || (x.get(k) > self.hi.get(k) && !self.closed(k, true));
+            past && (0..D::DIM)
+                .any(|j| j != k && (x.get(j) < self.lo.get(j) || x.get(j) > self.hi.get(j)))
+        })
+    }
+
     /// Solid: the distance from `x` to the nearest face when `x` is inside, 0 otherwise.
     fn solid_depth(&self, x: D::Vector) -> f64 {
         (0..D::DIM)
@@ -145,16 +157,18 @@ impl<D: Dim> WallGeometry<D> {
             .fold(container, f64::max)
     }
 
-    /// Whether `x` lies outside every container, further than `thickness` past one of its closed
-    /// faces: beyond the wall layers, where a particle can only have arrived over an open
-    /// face's rim (one step moves a particle less than the layers are thick). False without
-    /// containers, and when a container has no open face (nothing can leave a closed box: a
-    /// particle out there has passed through a wall). Solids do not enter.
+    /// Whether `x` lies outside every container, either further than `thickness` past one of
+    /// its closed faces (beyond the wall layers, where a particle can only have arrived over an
+    /// open face's rim: one step moves a particle less than the layers are thick) or over the
+    /// rim itself (past an open face's plane, beside the opening: on top of the wall layers or
+    /// further out). False without containers, and when a container has no open face (nothing
+    /// can leave a closed box: a particle out there has passed through a wall). Solids do not
+    /// enter.
     pub fn beyond_walls(&self, x: D::Vector, thickness: f64) -> bool {
         let mut any = false;
         for b in self.containers() {
             let open = b.open.iter().flatten().any(|o| *o);
-            if !open || b.container_depth(x) <= thickness {
+            if !open || (b.container_depth(x) <= thickness && !b.over_rim(x)) {
                 return false;
             }
             any = true;
@@ -279,13 +293,13 @@ mod tests {
             let step = WallBox::<D>::solid(at::<D>([2.0, 0.0, 0.0]), at::<D>([2.5, 0.5, 1.0]));
             let g = WallGeometry { boxes: vec![tank, step] };
             let (t, z) = (0.15, 0.5);
-            // In the fluid, in the wall layers, above the open top beside the tank, inside the
-            // solid: not beyond.
-            for x in [[1.0, 1.0, z], [-0.1, 1.0, z], [1.0, -0.15, z], [-0.5, 3.5, z], [2.25, 0.25, z]] {
+            // In the fluid, in the wall layers, above the opening, inside the solid: not beyond.
+            for x in [[1.0, 1.0, z], [-0.1, 1.0, z], [1.0, -0.15, z], [0.01, 3.5, z], [2.25, 0.25, z]] {
                 assert!(!g.beyond_walls(at::<D>(x), t), "{x:?}");
             }
-            // Past the layers beside or below the tank: beyond (spray that came over the rim).
-            for x in [[-0.5, 2.9, z], [4.2, 1.0, z], [1.0, -0.2, z]] {
+            // Past the layers beside or below the tank (spray that came over the rim), or above
+            // the rim beside the opening — on top of the wall layers or further out: beyond.
+            for x in [[-0.5, 2.9, z], [4.2, 1.0, z], [1.0, -0.2, z], [-0.1, 3.001, z], [-0.5, 3.5, z], [4.1, 3.2, z]] {
                 assert!(g.beyond_walls(at::<D>(x), t), "{x:?}");
             }
             // Without a container nothing is beyond, nor outside a closed box.
