@@ -607,6 +607,7 @@ pub fn run_scene(
                         "max_wall_penetrations",
                         "max_wall_intrusion_dx",
                         "wall_guarded",
+                        "wall_contacts",
                     ]
                     .iter()
                     .filter(|_| r.particles.1 > 0)

@@ -154,6 +154,12 @@ pub fn common_columns() -> Vec<Column> {
             "fluid particles the walls' guard stopped from crossing a wall in the last step",
         ),
         Column::new(
+            "wall_contacts",
+            "",
+            "free-surface particles in contact with a wall whose velocity into it the free-surface \
+             wall condition removed in the last step",
+        ),
+        Column::new(
             "energy_explicit",
             "energy",
             "change of the fluid's kinetic energy by the explicit forces (gravity, viscosity) in \
@@ -189,7 +195,7 @@ pub fn common_columns() -> Vec<Column> {
 }
 
 /// The names of the results every run reports (cases add their own).
-pub const COMMON_RESULTS: [&str; 13] = [
+pub const COMMON_RESULTS: [&str; 14] = [
     "reached_t",
     "steps",
     "max_wall_penetrations",
@@ -197,6 +203,7 @@ pub const COMMON_RESULTS: [&str; 13] = [
     "max_speed",
     "max_displacement",
     "wall_guarded",
+    "wall_contacts",
     "kinetic_energy",
     "solver_iterations_mean",
     "wall_seconds",
@@ -321,6 +328,7 @@ fn common_values<D: Dim>(
         det.map_or(nan, |d| d.max),
         r(&|r| r.max_displacement),
         r(&|r| r.wall_guarded as f64),
+        r(&|r| r.wall_contacts as f64),
         r(&|r| r.energy.explicit),
         r(&|r| r.energy.projection),
         r(&|r| r.energy.regularisation),
@@ -347,6 +355,9 @@ struct Tally {
     speed: f64,
     displacement: f64,
     guarded: usize,
+    /// Particle-steps the free-surface wall condition changed (absent in older checkpoints).
+    #[serde(default)]
+    contacts: usize,
     iterations: f64,
     steps: usize,
     /// The sampled extremes of the loop's records: the density error's largest value, and the
@@ -619,6 +630,7 @@ pub fn run_scheme<D: Dim>(
         tally.dt_max = tally.dt_max.max(dt);
         tally.displacement = tally.displacement.max(report.max_displacement);
         tally.guarded += report.wall_guarded;
+        tally.contacts += report.wall_contacts;
         tally.iterations += report.solve.iterations as f64;
         tally.phases.accumulate(&report.phases);
         let snap = pending.peek().is_some_and(|t| *t <= due(sim.t));
@@ -677,6 +689,7 @@ pub fn run_scheme<D: Dim>(
         ("max_speed", tally.speed.max(sim.max_speed())),
         ("max_displacement", tally.displacement),
         ("wall_guarded", tally.guarded as f64),
+        ("wall_contacts", tally.contacts as f64),
         ("kinetic_energy", {
             let p = &sim.particles;
             0.5 * p.masses[..counts.0]

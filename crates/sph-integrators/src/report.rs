@@ -179,8 +179,14 @@ pub struct StepReport {
     /// Fluid particles whose displacement would have crossed a wall and was cut short (the
     /// walls' guard; 0 when the wall condition held them).
     pub wall_guarded: usize,
+    /// Free-surface particles in contact with a wall whose velocity into it the free-surface
+    /// wall condition removed ([`Walls::hold_contacts`](crate::Walls::hold_contacts)), summed
+    /// over the step's applications (to the projected velocity, and to the copy of `uⁿ` the
+    /// predictor–corrector's displacement reads).
+    pub wall_contacts: usize,
     /// The fluid's kinetic energy `½ Σ m |u|²` split by what changed it in this step: the
-    /// explicit forces (`u* − uⁿ`: gravity, viscosity), the projection (`u_proj − u*`) and the
+    /// explicit forces (`u* − uⁿ`: gravity, viscosity), the projection (`u_proj − u*`, with the
+    /// free-surface particles' wall condition) and the
     /// particle regularisation (shifting's velocity correction and the walls' guard). Their sum
     /// is the step's change of kinetic energy.
     pub energy: EnergyBudget,

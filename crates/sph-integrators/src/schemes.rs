@@ -441,15 +441,21 @@ fn projection_passes<D: Dim>(
             particle,
         });
     }
+    let mut wall_contacts = hold_contacts(&sim.engine, x_eval, &mut sim.buf.u_new);
     let ke_proj = kinetic_energy(&p.masses[..nf], &sim.buf.u_new[..nf]);
     let half = 0.5 * dt;
-    for ((d, u), un) in sim
-        .buf
-        .disp
-        .iter_mut()
-        .zip(&p.velocities)
-        .zip(&sim.buf.u_new)
+    // The predictor–corrector's displacement also reads uⁿ, which shifting's velocity
+    // correction may have left moving into a wall: the free-surface wall condition applies to it
+    // too (a copy; the stored uⁿ is not changed).
+    let u_old: &[D::Vector] = if rule == PositionRule::Predicted && sim.buf.u_shift.len() == p.len()
     {
+        sim.buf.u_shift.copy_from_slice(&p.velocities);
+        wall_contacts += hold_contacts(&sim.engine, x_eval, &mut sim.buf.u_shift);
+        &sim.buf.u_shift
+    } else {
+        &p.velocities
+    };
+    for ((d, u), un) in sim.buf.disp.iter_mut().zip(u_old).zip(&sim.buf.u_new) {
         *d = match rule {
             PositionRule::Current => *un * dt,
             PositionRule::Predicted => (*u + *un) * half,
@@ -569,6 +575,7 @@ fn projection_passes<D: Dim>(
         wall_penetrations,
         max_displacement,
         wall_guarded,
+        wall_contacts,
         energy,
         phases,
         seconds: t0.elapsed().as_secs_f64(),
@@ -697,6 +704,17 @@ pub(crate) fn first_largest(values: impl IndexedParallelIterator<Item = f64>) ->
             |(k, m), (i, v)| if v > m { (i, v) } else { (k, m) },
         )
         .reduce(|| (0, 0.0), |a, b| if b.1 > a.1 { b } else { a })
+}
+
+/// The free-surface particles' wall condition ([`Walls::hold_contacts`](crate::Walls::hold_contacts))
+/// at the configuration `x` the step's lists belong to; the number of particles it changed.
+fn hold_contacts<D: Dim>(e: &Engine<D>, x: &[D::Vector], u: &mut [D::Vector]) -> usize {
+    let Some(w) = &e.walls else { return 0 };
+    if !e.dirichlet.iter().any(|d| *d) {
+        return 0;
+    }
+    let ctx = engine_context!(e, x);
+    w.hold_contacts(&ctx, &e.dirichlet, u)
 }
 
 /// The walls' last line of defence: a fluid particle in the fluid region whose displacement

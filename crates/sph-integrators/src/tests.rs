@@ -216,6 +216,79 @@ fn inconsistent_particles_are_rejected() {
 }
 
 sph_core::dim_tests! {
+    fn a_free_surface_particle_in_contact_with_a_wall_stops_moving_into_it<D>() {
+        // Fluid on the lattice below y = 1, three lid layers above it moving with (0, 0.1, 0),
+        // inward normal +y. Four particles of the top row (a free surface): A and B raised by
+        // 0.3 Δx into contact with the lid (0.7 Δx from its first layer), A moving into it and
+        // B away; C at the lattice distance (Δx from the layer) moving into it; D raised like
+        // A but not a free-surface particle. Only A changes: its y velocity becomes the lid's.
+        use sph_kernels::Kernel;
+        use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
+        let dx = 0.1;
+        let n = 8i64;
+        let span = if D::DIM == 3 { n } else { 1 };
+        let (mut fluid, mut wall, mut top) = (Vec::new(), Vec::new(), Vec::new());
+        for k in 0..span {
+            for j in 0..n + 3 {
+                for i in 0..n {
+                    let idx = [i, j, k];
+                    let x = D::Vector::from_fn(|c| (idx[c] as f64 + 0.5) * dx);
+                    if j < n {
+                        if j == n - 1 {
+                            top.push(fluid.len());
+                        }
+                        fluid.push(x);
+                    } else {
+                        wall.push(x);
+                    }
+                }
+            }
+        }
+        let first = fluid.len();
+        let nw = wall.len();
+        fluid.extend(wall);
+        let (a, b, c, d) = (top[1], top[3], top[5], top[6]);
+        for i in [a, b, d] {
+            fluid[i] += D::Vector::from_fn(|k| if k == 1 { 0.3 * dx } else { 0.0 });
+        }
+        let kernel = KernelKind::WendlandC2.build::<D>(1.3 * dx);
+        let mut grid = CellGrid::<D>::new();
+        grid.build(&fluid, kernel.support_radius()).unwrap();
+        let mut nl = NeighborList::new();
+        grid.query(&fluid, &mut nl);
+        let vols = vec![dx.powi(D::DIM as i32); fluid.len()];
+        let ctx = sph_operators::SphContext::new(&fluid, &vols, &nl, &kernel);
+        let lid = D::Vector::from_fn(|c| if c == 1 { 0.1 } else { 0.0 });
+        let walls = Walls::<D> {
+            model: WallModel::DummyParticles,
+            condition: WallCondition::Continuation,
+            first,
+            velocity: vec![lid; nw],
+            mirror: vec![D::Vector::from_fn(|c| if c == 1 { -1.0 } else { 1.0 }); nw],
+            inward: vec![D::Vector::from_fn(|c| if c == 1 { 1.0 } else { 0.0 }); nw],
+            separation: true,
+            geometry: crate::WallGeometry::closed_box(D::Vector::ZERO, D::Vector::from_fn(|_| 1.0)),
+            thickness: 0.3,
+            ghosts: None,
+        };
+        let mut free = vec![false; fluid.len()];
+        for &i in &top {
+            free[i] = i != d;
+        }
+        let up = D::Vector::from_fn(|c| [0.3, 0.2, 0.1][c]);
+        let down = D::Vector::from_fn(|c| [0.3, -0.2, 0.1][c]);
+        let mut u = vec![up; fluid.len()];
+        u[b] = down;
+        let before = u.clone();
+        let changed = walls.hold_contacts(&ctx, &free, &mut u);
+        assert_eq!(changed, 1, "{}", D::NAME);
+        assert_eq!(u[a], D::Vector::from_fn(|c| if c == 1 { 0.1 } else { up.get(c) }), "{}", D::NAME);
+        for i in (0..first).filter(|&i| i != a) {
+            assert_eq!(u[i], before[i], "{}: particle {i}", D::NAME);
+        }
+        assert!([b, c, d].iter().all(|&i| u[i] == before[i]));
+    }
+
     fn wall_data_of_a_uniform_flow<D>() {
         // Fluid on the lattice below y = 1 with a uniform velocity u₀; three layers of lid
         // particles above it moving with (1, 0, 0), mirror (1, −1, 1). The Shepard average of a

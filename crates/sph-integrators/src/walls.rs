@@ -588,6 +588,60 @@ impl<D: Dim> Walls<D> {
         }
     }
 
+    /// The wall condition of the free-surface particles (`free[i]`), which the projection
+    /// cannot reach: their pressure is fixed at 0, so no wall pressure solved with them stops
+    /// them, and the wall particles' own pressures cover only the wall's half of their kernel
+    /// support. A free-surface particle `i` in contact with a wall — closer than one spacing
+    /// `Δx_i = V_i^{1/d}` along a wall particle's normal axis `a` to that particle, i.e. nearer
+    /// the face than a lattice's Δx/2 — loses the velocity component into that wall:
+    ///
+    /// ```text
+    /// (u_i − u_w)_a s_a > 0  and  |(x_i − x_w)_a| < Δx_i   ⇒   u_{i,a} = u_{w,a}
+    /// ```
+    ///
+    /// (`s = inward[w]`, the direction from the fluid into the wall). The discrete form of
+    /// `u·n ≥ u_wall·n` at the wall for the particles without a pressure row; a velocity away
+    /// from the wall is left alone. Returns how many particles it changed (each step's report
+    /// and record carry the count).
+    pub fn hold_contacts<K: Kernel<D>>(
+        &self,
+        ctx: &SphContext<'_, D, K>,
+        free: &[bool],
+        u: &mut [D::Vector],
+    ) -> usize {
+        let first = self.first;
+        u[..first]
+            .par_iter_mut()
+            .zip(&free[..first])
+            .enumerate()
+            .with_min_len(1024)
+            .map(|(i, (u, &free))| {
+                if !free {
+                    return 0;
+                }
+                let reach = 0.999 * ctx.volumes[i].powf(1.0 / D::DIM as f64);
+                let xi = ctx.positions[i];
+                let before = *u;
+                for j in ctx.neighbors_of(i) {
+                    if j < first {
+                        continue;
+                    }
+                    let (n, vw) = (self.inward[j - first], self.velocity[j - first]);
+                    let r = ctx.pair(xi, j);
+                    *u = D::Vector::from_fn(|a| {
+                        let (s, ua) = (n.get(a), u.get(a));
+                        if s != 0.0 && r.get(a).abs() < reach && (ua - vw.get(a)) * s > 0.0 {
+                            vw.get(a)
+                        } else {
+                            ua
+                        }
+                    });
+                }
+                usize::from(*u != before)
+            })
+            .sum()
+    }
+
     /// `out[k] = f(k, ũ_k)` for each wall particle, with `ũ` the Shepard average of the fluid
     /// velocities around it (`u_wall` where it has no fluid neighbour).
     fn map_shepard<K: Kernel<D>>(
