@@ -600,8 +600,8 @@ impl<D: Dim> Walls<D> {
     /// ```
     ///
     /// (`s = inward[w]`, the direction from the fluid into the wall). The discrete form of
-    /// `u·n ≥ u_wall·n` at the wall for the particles without a pressure row; a velocity away
-    /// from the wall is left alone. Returns how many particles it changed (each step's report
+    /// `(u − u_wall)·n ≤ 0` at the wall (`n` pointing into it) for the particles without a
+    /// pressure row; a velocity away from the wall is left alone. Returns how many particles it changed (each step's report
     /// and record carry the count).
     pub fn hold_contacts<K: Kernel<D>>(
         &self,
