@@ -844,6 +844,13 @@ fn cases() -> Vec<Case> {
             "pressure.consistent_laplacian",
         ),
         (
+            "adjoint gradient without renormalisation",
+            TANK,
+            "[free_surface]",
+            "[pressure]\ngradient = \"adjoint\"\n[free_surface]",
+            "pressure.gradient",
+        ),
+        (
             "open face named with a multi-byte character",
             TANK,
             "open = [\"+y\"]",

@@ -1042,6 +1042,13 @@ impl Validator<'_> {
                 "needs renormalisation (pressure.renormalise = true)",
             );
         }
+        if c.gradient == sph_operators::GradientForm::Adjoint && !c.renormalise {
+            return self.bad(
+                "pressure.gradient",
+                "\"adjoint\" is the negative adjoint of the renormalised divergence: it needs \
+                 pressure.renormalise = true (without it, it is \"symmetric\")",
+            );
+        }
         if c.free_surface.is_some_and(|f| f.zero_pressure_depth > 0.0)
             && !(c.renormalise && c.gradient == sph_operators::GradientForm::Difference)
         {
