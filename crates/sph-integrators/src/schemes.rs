@@ -446,15 +446,17 @@ fn projection_passes<D: Dim>(
     let half = 0.5 * dt;
     // The predictor–corrector's displacement also reads uⁿ, which shifting's velocity
     // correction may have left moving into a wall: the free-surface wall condition applies to it
-    // too (a copy; the stored uⁿ is not changed).
-    let u_old: &[D::Vector] = if rule == PositionRule::Predicted && sim.buf.u_shift.len() == p.len()
-    {
-        sim.buf.u_shift.copy_from_slice(&p.velocities);
-        wall_contacts += hold_contacts(&sim.engine, x_eval, &mut sim.buf.u_shift);
-        &sim.buf.u_shift
-    } else {
-        &p.velocities
-    };
+    // too (a copy in shifting's buffer; the stored uⁿ is not changed). Without shifting uⁿ is
+    // the last projection's, already held.
+    let shifting = sim.engine.config.effects.shifting.is_some();
+    let u_old: &[D::Vector] =
+        if rule == PositionRule::Predicted && shifting && has_contacts(&sim.engine) {
+            sim.buf.u_shift.copy_from_slice(&p.velocities);
+            wall_contacts += hold_contacts(&sim.engine, x_eval, &mut sim.buf.u_shift);
+            &sim.buf.u_shift
+        } else {
+            &p.velocities
+        };
     for ((d, u), un) in sim.buf.disp.iter_mut().zip(u_old).zip(&sim.buf.u_new) {
         *d = match rule {
             PositionRule::Current => *un * dt,
@@ -709,12 +711,15 @@ pub(crate) fn first_largest(values: impl IndexedParallelIterator<Item = f64>) ->
 /// The free-surface particles' wall condition ([`Walls::hold_contacts`](crate::Walls::hold_contacts))
 /// at the configuration `x` the step's lists belong to; the number of particles it changed.
 fn hold_contacts<D: Dim>(e: &Engine<D>, x: &[D::Vector], u: &mut [D::Vector]) -> usize {
-    let Some(w) = &e.walls else { return 0 };
-    if !e.dirichlet.iter().any(|d| *d) {
-        return 0;
+    match &e.walls {
+        Some(w) if has_contacts(e) => w.hold_contacts(&engine_context!(e, x), &e.dirichlet, u),
+        _ => 0,
     }
-    let ctx = engine_context!(e, x);
-    w.hold_contacts(&ctx, &e.dirichlet, u)
+}
+
+/// Whether the free-surface particles' wall condition can act: walls and a free surface.
+fn has_contacts<D: Dim>(e: &Engine<D>) -> bool {
+    e.walls.is_some() && e.dirichlet.iter().any(|d| *d)
 }
 
 /// The walls' last line of defence: a fluid particle in the fluid region whose displacement

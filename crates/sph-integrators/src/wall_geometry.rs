@@ -60,11 +60,7 @@ impl<D: Dim> WallBox<D> {
     /// Container: how far `x` lies past its closed faces, `max_k max(lo_k − x_k, x_k − hi_k, 0)`
     /// over closed faces; 0 when `x` lies beyond an open face (it left through the opening).
     fn container_depth(&self, x: D::Vector) -> f64 {
-        let beyond_open = (0..D::DIM).any(|k| {
-            (x.get(k) < self.lo.get(k) && !self.closed(k, false))
-                || (x.get(k) > self.hi.get(k) && !self.closed(k, true))
-        });
-        if beyond_open {
+        if (0..D::DIM).any(|k| self.past_open_face(x, k)) {
             return 0.0;
         }
         (0..D::DIM)
@@ -89,11 +85,16 @@ impl<D: Dim> WallBox<D> {
     /// layers or further out.
     fn over_rim(&self, x: D::Vector) -> bool {
         (0..D::DIM).any(|k| {
-            let past = (x.get(k) < self.lo.get(k) && !self.closed(k, false))
-                || (x.get(k) > self.hi.get(k) && !self.closed(k, true));
-            past && (0..D::DIM)
-                .any(|j| j != k && (x.get(j) < self.lo.get(j) || x.get(j) > self.hi.get(j)))
+            self.past_open_face(x, k)
+                && (0..D::DIM)
+                    .any(|j| j != k && (x.get(j) < self.lo.get(j) || x.get(j) > self.hi.get(j)))
         })
+    }
+
+    /// Container: whether `x` lies past the plane of an open face normal to axis `k`.
+    fn past_open_face(&self, x: D::Vector, k: usize) -> bool {
+        (x.get(k) < self.lo.get(k) && !self.closed(k, false))
+            || (x.get(k) > self.hi.get(k) && !self.closed(k, true))
     }
 
     /// Solid: the distance from `x` to the nearest face when `x` is inside, 0 otherwise.

@@ -313,6 +313,11 @@ pub enum WallError {
     Box,
 }
 
+/// A free-surface particle is in contact with a wall particle closer than this many spacings
+/// along the wall's normal ([`Walls::hold_contacts`]): just under one, so a particle at a
+/// lattice's distance (exactly one spacing from the first wall layer) is not in contact.
+const CONTACT_REACH: f64 = 0.999;
+
 impl<D: Dim> Walls<D> {
     /// How deep `x` lies in wall material (0 in the fluid region), see
     /// [`WallGeometry::depth`].
@@ -619,7 +624,7 @@ impl<D: Dim> Walls<D> {
                 if !free {
                     return 0;
                 }
-                let reach = 0.999 * ctx.volumes[i].powf(1.0 / D::DIM as f64);
+                let reach = CONTACT_REACH * ctx.volumes[i].powf(1.0 / D::DIM as f64);
                 let xi = ctx.positions[i];
                 let before = *u;
                 for j in ctx.neighbors_of(i) {
