@@ -851,6 +851,13 @@ fn cases() -> Vec<Case> {
             "pressure.gradient",
         ),
         (
+            "level term with the difference gradient",
+            TANK,
+            "[free_surface]",
+            "[pressure]\ngradient = \"difference\"\nlevel_consistent = true\n[free_surface]",
+            "pressure.level_consistent",
+        ),
+        (
             "open face named with a multi-byte character",
             TANK,
             "open = [\"+y\"]",

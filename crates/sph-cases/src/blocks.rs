@@ -392,6 +392,11 @@ pub struct PressureSpec {
     /// hydrostatic pressure is a discrete solution on a disordered particle set. Needs
     /// `renormalise`. Default false.
     pub consistent_laplacian: Option<bool>,
+    /// Complete the pressure equation with the divergence of the symmetric gradient's
+    /// constant-pressure part, so the projection is consistent at any pressure level (see
+    /// `sph_pressure::add_level_term`). Only with the symmetric gradient, not renormalised.
+    /// Default: true where that is the gradient (flow and dam-break scenes), false otherwise.
+    pub level_consistent: Option<bool>,
     /// Density relaxation `α` in [0, 1] (Asai et al. 2012): the projection pulls each
     /// particle's summation density back towards the lattice's by the fraction `α` of its
     /// error per step (away from free surfaces). Default: `FLOW_DENSITY_RELAXATION` (0.05) for

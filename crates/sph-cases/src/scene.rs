@@ -511,6 +511,11 @@ impl Scene {
         };
         config.renormalise = self.pressure.renormalise.unwrap_or(!flow);
         config.consistent_laplacian = self.pressure.consistent_laplacian.unwrap_or(false);
+        // The symmetric gradient's projection is made consistent at any pressure level
+        // (docs/physics.md, "The symmetric gradient at a pressure level").
+        config.level_consistent = self.pressure.level_consistent.unwrap_or(
+            config.gradient == sph_operators::GradientForm::Symmetric && !config.renormalise,
+        );
         // Flow scenes relax their packing by displacements (docs/physics.md, "Density
         // relaxation"); the paper's cases keep the paper's projection.
         config.density_relaxation = self.pressure.density_relaxation.unwrap_or(if flow {
@@ -1040,6 +1045,16 @@ impl Validator<'_> {
             return self.bad(
                 "pressure.consistent_laplacian",
                 "needs renormalisation (pressure.renormalise = true)",
+            );
+        }
+        if c.level_consistent
+            && (c.gradient != sph_operators::GradientForm::Symmetric || c.renormalise)
+        {
+            return self.bad(
+                "pressure.level_consistent",
+                "completes the equation for the symmetric gradient without renormalisation \
+                 (pressure.gradient = \"symmetric\", pressure.renormalise = false); the other \
+                 gradients are exact for a constant pressure and need no level term",
             );
         }
         if c.gradient == sph_operators::GradientForm::Adjoint && !c.renormalise {

@@ -220,6 +220,12 @@ pub struct SimConfig {
     /// `sph_pressure::assemble_ppe`). A hydrostatic pressure is then an exact discrete solution
     /// of a disordered particle set; needs `renormalise`. Default `false` (the paper's operators).
     pub consistent_laplacian: bool,
+    /// Complete the pressure equation with the divergence of the symmetric gradient's
+    /// constant-pressure part (`sph_pressure::add_level_term`), so the projection is the one the
+    /// velocity correction applies at any pressure level. Only with
+    /// [`GradientForm::Symmetric`] without renormalisation. Default `false`; flow scenes turn it
+    /// on (docs/physics.md, "The symmetric gradient at a pressure level").
+    pub level_consistent: bool,
     /// Density relaxation `α` (Asai et al. 2012, J. Appl. Math. 2012, 139583): each step moves
     /// every fluid particle's summation density back towards a perfect lattice's by the fraction
     /// `α` of its excess `e_i` ([`kernel_sum_excess`](sph_operators::kernel_sum_excess)), so
@@ -268,6 +274,7 @@ impl SimConfig {
             renormalise: true,
             dg_hessian: HessianForm::Eq25,
             consistent_laplacian: false,
+            level_consistent: false,
             density_relaxation: 0.0,
             density_relaxation_form: DensityRelaxationForm::Velocity,
             solver: SolverKind::BicgstabAmg,

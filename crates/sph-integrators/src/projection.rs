@@ -18,8 +18,8 @@ use sph_operators::{
     gradient, invariants, kernel_sum_excess, velocity_gradient,
 };
 use sph_pressure::{
-    CsrSystem, LinearSolver, SolveInfo, assemble_dg, assemble_ppe, assemble_surface_rows,
-    assemble_wall_rows, fold_ghost_columns,
+    CsrSystem, LinearSolver, SolveInfo, add_level_term, assemble_dg, assemble_ppe,
+    assemble_surface_rows, assemble_wall_rows, fold_ghost_columns,
 };
 use std::time::Instant;
 
@@ -262,6 +262,37 @@ pub(crate) fn project<D: Dim>(
             phases.add(Phase::Assembly, clock);
         }
     }
+    // No Dirichlet row: a closed domain, pressure defined up to a constant → mean-zero gauge.
+    let closed = !e.dirichlet.iter().any(|d| *d);
+    // The level term fixes the pressure's constant (`p c` is not invariant under it): only a free
+    // surface may fix it, so a closed domain keeps its gauge and its lift, without the term.
+    if e.config.level_consistent && !closed {
+        let clock = Instant::now();
+        gradient(
+            &ctx,
+            &e.ones,
+            sph_operators::GradientForm::Symmetric,
+            None,
+            &mut e.level[..nf],
+        );
+        // Not in the free surface's band (a free-surface particle in the support, the particle
+        // itself included): there `c_i` measures the support the surface cuts, not disorder,
+        // and `p_i c_i` is the push that gives the surface rows the pressure gradient their
+        // `p = 0` leaves out (docs/physics.md).
+        let dirichlet = &e.dirichlet;
+        e.level[..nf]
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(i, c)| {
+                if ctx.neighbors_of(i).any(|j| dirichlet[j]) {
+                    *c = D::Vector::ZERO;
+                }
+            });
+        add_level_term(&ctx, &e.level, densities, flags, nf, &mut e.matrix)
+            .map_err(|source| StepError::Assembly { step, t, source })?;
+        phases.add(Phase::Assembly, clock);
+    }
     if nf < ctx.len() || robin > 0.0 {
         let clock = Instant::now();
         let ghosts = e
@@ -301,9 +332,7 @@ pub(crate) fn project<D: Dim>(
     if !e.config.warm_start {
         pressures.fill(0.0);
     }
-    // No Dirichlet row: a closed domain, pressure defined up to a constant → mean-zero gauge.
     let clock = Instant::now();
-    let closed = !e.dirichlet.iter().any(|d| *d);
     let solve = if closed {
         e.gauge
             .solve(&mut e.solver, &system, nf, pressures, &e.config.solve)
@@ -390,8 +419,9 @@ pub(crate) fn project<D: Dim>(
 ///
 /// with `e_i = ρ̂_i/ρ̂_lattice − 1` the kernel-sum excess
 /// ([`kernel_sum_excess`]), set to 0 where a free-surface particle is in the support (there the
-/// sum measures the cut support). The matrix is the PPE's (paper Eq. 3's operator; for DG-ISPH it is
-/// assembled here, for the PPE the projection's is reused), the solve starts from zero (no
+/// sum measures the cut support). The matrix is the PPE's (paper Eq. 3's operator; assembled
+/// here for DG-ISPH and with the level term, whose projection's matrix is another; otherwise the
+/// projection's is reused), the solve starts from zero (no
 /// state carried between steps: a resumed run is the same bits). The displacements are left in
 /// `e.correction` for the scheme to add to the step's; the velocities are untouched, so the
 /// correction restores the volume the divergence-free projection lets drift (Shao & Lo's
@@ -429,7 +459,11 @@ fn correct_density<D: Dim>(
     let clock = Instant::now();
     let alpha = e.config.density_relaxation;
     let scale = alpha / (dt * dt);
-    if equation == Equation::Ppe {
+    // The displacement is the difference gradient of `q` (below), whose divergence the
+    // assembled Laplacian matches: the level term belongs to the symmetric gradient only.
+    let level_term = e.config.level_consistent && e.dirichlet.iter().any(|d| *d);
+    let reuse = equation == Equation::Ppe && !level_term;
+    if reuse {
         // The projection's matrix is this equation's: only the right-hand side changes (wall
         // and surface rows get zero data).
         for (i, r) in e.rhs.iter_mut().enumerate() {
@@ -495,10 +529,11 @@ fn correct_density<D: Dim>(
         border: None,
     };
     e.potential.fill(0.0);
-    // The PPE's solver keeps its hierarchy for this matrix; DG's belongs to another one.
-    let solver = match equation {
-        Equation::Ppe => &mut e.solver,
-        Equation::Dg => &mut e.correction_solver,
+    // The PPE's solver keeps its hierarchy for its matrix when this one is the same.
+    let solver = if reuse {
+        &mut e.solver
+    } else {
+        &mut e.correction_solver
     };
     let clock = Instant::now();
     let solve = if e.dirichlet.iter().any(|d| *d) {

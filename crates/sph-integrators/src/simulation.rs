@@ -116,6 +116,9 @@ pub(crate) struct Engine<D: Dim> {
     pub(crate) rhs: Vec<f64>,
     pub(crate) matrix: CsrMatrix,
     pub(crate) grad_p: Vec<D::Vector>,
+    /// Level-consistent projection: `p ≡ 1` and its symmetric gradient `c_i` per particle.
+    pub(crate) ones: Vec<f64>,
+    pub(crate) level: Vec<D::Vector>,
     pub(crate) scalar: Vec<f64>,
     pub(crate) gauge: MeanZeroGauge,
     /// Lists prepared at `xⁿ` and set aside while the predictor–corrector scheme projects at the
@@ -251,6 +254,8 @@ impl<D: Dim> Simulation<D> {
             rhs: Vec::new(),
             matrix: CsrMatrix::default(),
             grad_p: Vec::new(),
+            ones: Vec::new(),
+            level: Vec::new(),
             scalar: Vec::new(),
             gauge: MeanZeroGauge::default(),
             saved: SavedLists {
@@ -514,6 +519,10 @@ impl<D: Dim> Simulation<D> {
         e.a.resize(n, D::Matrix::IDENTITY);
         e.rhs.resize(n, 0.0);
         e.grad_p.resize(n, D::Vector::ZERO);
+        if e.config.level_consistent {
+            e.ones.resize(n, 1.0);
+            e.level.resize(n, D::Vector::ZERO);
+        }
         e.scalar.resize(n, 0.0);
         if let Some(w) = &e.walls {
             e.u_div.resize(n, D::Vector::ZERO);

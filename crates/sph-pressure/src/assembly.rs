@@ -176,6 +176,67 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
     Ok(fallbacks.into_inner())
 }
 
+/// Completes the fluid rows `0..rows` of an assembled pressure equation ([`assemble_ppe`] or
+/// [`assemble_dg`], before the Dirichlet columns of the wall rows are folded in) with the term
+/// the symmetric pressure gradient adds to the projection, so the equation solved is the one the
+/// velocity correction applies, for any pressure level:
+///
+/// ```text
+/// G_i p = Σ_j V_j (p_i + p_j) ∇W_ij = Σ_j V_j (p_j − p_i) ∇W_ij + p_i c_i,   c_i = 2 Σ_j V_j ∇W_ij
+/// ∇·(∇p/ρ)_i  ≈  L_i p + Σ_{j fluid} V_j (p_j c_j/ρ_j − p_i c_i/ρ_i)·∇W_ij
+/// ```
+///
+/// `L_i p` is the assembled row (Morris's Laplacian, or DG's Hessian contracted with
+/// `cof(A)/ρ`), which matches the divergence of the *difference* part of `G`; the second sum is
+/// the flow divergence of the constant-pressure part `p c/ρ`. `c_i` (`level`, one vector per
+/// fluid particle, the symmetric gradient of `p = 1`; a caller may set it to 0 where the term
+/// is not wanted, the scenes in a free surface's band) vanishes where the support is full and
+/// the particles are a lattice, and is first order in the disorder elsewhere; without this term
+/// the projection of a field whose pressure is large compared with its variation over a support
+/// (the bottom of a deep pool, a corner under a run-up) overshoots wherever `c` is not small,
+/// and the per-step map `u* → uⁿ⁺¹` can amplify (its eigenvalue near −1: the pressure flips sign
+/// every step). Rows are negated like the assembled ones (`−` on `p_j`, `+` on `p_i`). Dirichlet
+/// rows are left alone and Dirichlet columns stay 0 (their `p_j = 0`); wall columns get nothing
+/// (the walls' velocities are not corrected by the projection). The matrix is no longer
+/// symmetric.
+pub fn add_level_term<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    level: &[D::Vector],
+    densities: &[f64],
+    dirichlet: &[bool],
+    rows: usize,
+    matrix: &mut CsrMatrix,
+) -> Result<(), PressureError> {
+    assert!(level.len() >= rows && densities.len() == ctx.len() && dirichlet.len() == ctx.len());
+    let nl = ctx.neighbors;
+    let (offsets, values) = assembled_rows(nl.offsets(), &mut matrix.values, rows);
+    for_each_row_mut(offsets, values, &|i, row| {
+        if dirichlet[i] {
+            return;
+        }
+        let mut sigma = D::Vector::ZERO;
+        let mut diag = None;
+        ctx.for_each_pair(i, |p| {
+            let j = p.j;
+            if j == i {
+                diag = Some(p.k);
+                return;
+            }
+            if j >= rows {
+                return;
+            }
+            let vw = p.grad_w * ctx.volumes[j];
+            sigma += vw;
+            if !dirichlet[j] {
+                row[p.k] -= level[j].dot(vw) / densities[j];
+            }
+        });
+        let diag = diag.expect("neighbour rows contain the particle");
+        row[diag] += level[i].dot(sigma) / densities[i];
+    });
+    check_finite(values, offsets, &[])
+}
+
 /// Makes a stencil `Σ_j a_ij (p_j − p_i)` (row `i` holding `−a_ij` off the diagonal) exact for
 /// linear fields on any particle arrangement, by subtracting the linear part the renormalised
 /// gradient `G_i p = Σ_k V_k (p_k − p_i) L_i∇W_ik` measures:

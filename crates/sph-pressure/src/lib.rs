@@ -7,6 +7,9 @@
 //!   the Cummins & Rudman (1999) form of the Morris Laplacian.
 //! * [`assemble_dg`] — the deformation-gradient equation of DG-ISPH (paper Eqs. 20–24,
 //!   Algorithm 1) written for any dimension as `(Δt²/ρ) cof(A) : ∇∇p = det A − 1`.
+//! * [`add_level_term`] — completes either with the divergence of the symmetric pressure
+//!   gradient's constant-pressure part, so a projection with that gradient is consistent at any
+//!   pressure level (the flow scenes' default).
 //!
 //! **Sign of the DG equation.** With the velocity correction of Algorithm 1,
 //! `u = u* − Δt ∇p/ρ`, the step's deformation gradient is `F = A − (Δt²/ρ) ∇∇p` with
@@ -41,7 +44,7 @@ mod error;
 pub mod solver;
 mod walls;
 
-pub use assembly::{DgHessian, PressureRhs, assemble_dg, assemble_ppe};
+pub use assembly::{DgHessian, PressureRhs, add_level_term, assemble_dg, assemble_ppe};
 pub use csr::CsrMatrix;
 pub use error::{PressureError, SolveError};
 pub use solver::{

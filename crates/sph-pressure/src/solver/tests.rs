@@ -2,12 +2,12 @@
 
 use super::*;
 use crate::csr::CsrMatrix;
-use crate::{DgHessian, assemble_dg, assemble_ppe};
+use crate::{DgHessian, add_level_term, assemble_dg, assemble_ppe};
 use sph_core::testing::{SplitMix64, lattice};
 use sph_core::{D2, D3, Dim, MatrixOps, VectorOps};
 use sph_kernels::{Kernel, QuinticSpline};
 use sph_neighbors::{CellGrid, NeighborList, NeighborSearch};
-use sph_operators::{SphContext, laplacian};
+use sph_operators::{GradientForm, SphContext, divergence, gradient, laplacian};
 
 /// A disc/ball of lattice particles; particles with |x| > 0.8 R are Dirichlet.
 struct Fixture<D: Dim> {
@@ -1001,4 +1001,57 @@ fn backward_error_does_not_depend_on_the_number_of_unknowns() {
     let expected = 1e-6 / (4.0 + 1e-6);
     assert!((small / expected - 1.0).abs() < 1e-9, "{small}");
     assert!((large / expected - 1.0).abs() < 1e-9, "{large} at 10 000");
+}
+
+sph_core::dim_tests! {
+    fn the_level_term_is_the_divergence_of_the_symmetric_gradients_constant_part<D>() {
+        // On a jittered ball with a Dirichlet rim and non-uniform densities, for a pressure that
+        // is 0 on the rim: the rows the level term adds, −(M' − M) p, equal the flow divergence
+        // of (G_sym p − G_diff p)/ρ, both gradients and the divergence taken from
+        // sph-operators — the projection's operator with the symmetric gradient, less the part
+        // the Laplacian stands for. PPE and DG rows alike (the term is the same).
+        let fx = Fixture::<D>::jittered(if D::DIM == 2 { 24 } else { 10 }, 0.2);
+        let n = fx.pts.len();
+        let ctx = fx.ctx();
+        let mut rng = SplitMix64::new(11);
+        let rho: Vec<f64> = (0..n).map(|_| rng.uniform(0.8, 1.25)).collect();
+        let masses: Vec<f64> = fx.vols.iter().zip(&rho).map(|(v, r)| v * r).collect();
+        let p: Vec<f64> = (0..n)
+            .map(|i| if fx.dirichlet[i] { 0.0 } else { 3.0 + fx.pts[i].get(0) + rng.uniform(-0.5, 0.5) })
+            .collect();
+        let ones = vec![1.0; n];
+        let mut level = vec![D::Vector::ZERO; n];
+        gradient(&ctx, &ones, GradientForm::Symmetric, None, &mut level);
+        let (mut gs, mut gd) = (vec![D::Vector::ZERO; n], vec![D::Vector::ZERO; n]);
+        gradient(&ctx, &p, GradientForm::Symmetric, None, &mut gs);
+        gradient(&ctx, &p, GradientForm::Difference, None, &mut gd);
+        let q: Vec<D::Vector> = (0..n).map(|i| (gs[i] - gd[i]) * (1.0 / rho[i])).collect();
+        let mut want = vec![0.0; n];
+        divergence(&ctx, &q, None, &mut want);
+        let zeros = vec![0.0; n];
+        let a = vec![D::Matrix::IDENTITY; n];
+        for dg in [false, true] {
+            let (mut m, mut rhs) = (CsrMatrix::default(), vec![0.0; n]);
+            if dg {
+                assemble_dg(&ctx, &rho, &a, &zeros, 1.0, DgHessian::Eq25, &fx.dirichlet, None, n, &mut m, &mut rhs).unwrap();
+            } else {
+                assemble_ppe(&ctx, &masses, &rho, &zeros, 1.0, &fx.dirichlet, None, n, &mut m, &mut rhs).unwrap();
+            }
+            let mut before = vec![0.0; n];
+            m.matvec(fx.nl.offsets(), fx.nl.indices(), &p, &mut before);
+            add_level_term(&ctx, &level, &rho, &fx.dirichlet, n, &mut m).unwrap();
+            let mut after = vec![0.0; n];
+            m.matvec(fx.nl.offsets(), fx.nl.indices(), &p, &mut after);
+            let scale = want.iter().fold(0.0_f64, |a, w| a.max(w.abs()));
+            assert!(scale > 1.0, "the jittered ball's level term is not small: {scale}");
+            for i in 0..n {
+                if fx.dirichlet[i] {
+                    assert_eq!(after[i], before[i], "Dirichlet row {i} changed");
+                    continue;
+                }
+                let got = before[i] - after[i];
+                assert!((got - want[i]).abs() <= 1e-10 * scale, "dg {dg}, row {i}: {got} against {}", want[i]);
+            }
+        }
+    }
 }
