@@ -164,19 +164,8 @@ mod tests {
 
     /// Largest |∇C_i| (the concentration gradient) at the particles' positions.
     fn disorder<D: Dim>(sim: &mut Simulation<D>) -> f64 {
-        sim.ensure_buffers();
+        crate::tests::prepare_here(sim);
         let p = &sim.particles;
-        let mut phases = crate::report::PhaseTimes::default();
-        crate::projection::prepare(
-            &mut sim.engine,
-            &p.positions,
-            &p.masses,
-            &p.densities,
-            0,
-            0.0,
-            &mut phases,
-        )
-        .unwrap();
         let e = &sim.engine;
         let mut g = vec![D::Vector::ZERO; p.len()];
         let ctx = engine_context!(e, &p.positions);

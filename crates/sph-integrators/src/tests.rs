@@ -991,15 +991,9 @@ fn jittered_layer<D: Dim>(level: bool, jitter: f64, rows: usize) -> Simulation<D
     Simulation::new(p, cfg).unwrap()
 }
 
-/// `‖u_{k+1} − u_k‖` for `k = 0..iterations` of the projection repeated at fixed positions on
-/// `u_{k+1} = P(u_k)` (no motion, no forces): a projection that is one changes nothing after the
-/// first application; an approximate one leaves a remainder whose ratio from one application to
-/// the next is the per-step map's amplification of the divergence it fails to remove.
-fn repeated_projection<D: Dim>(
-    sim: &mut Simulation<D>,
-    equation: crate::projection::Equation,
-    iterations: usize,
-) -> Vec<f64> {
+/// The step's lists, volumes and flags at the particles' current positions (what a step
+/// prepares before its projection), for tests that drive the passes themselves.
+pub(crate) fn prepare_here<D: Dim>(sim: &mut Simulation<D>) -> crate::report::PhaseTimes {
     sim.ensure_buffers();
     let p = &sim.particles;
     let mut phases = crate::report::PhaseTimes::default();
@@ -1013,6 +1007,20 @@ fn repeated_projection<D: Dim>(
         &mut phases,
     )
     .unwrap();
+    phases
+}
+
+/// `‖u_{k+1} − u_k‖` for `k = 0..iterations` of the projection repeated at fixed positions on
+/// `u_{k+1} = P(u_k)` (no motion, no forces): a projection that is one changes nothing after the
+/// first application; an approximate one leaves a remainder whose ratio from one application to
+/// the next is the per-step map's amplification of the divergence it fails to remove.
+fn repeated_projection<D: Dim>(
+    sim: &mut Simulation<D>,
+    equation: crate::projection::Equation,
+    iterations: usize,
+) -> Vec<f64> {
+    let mut phases = prepare_here(sim);
+    let p = &sim.particles;
     let mut u = p.velocities.clone();
     let mut u_new = u.clone();
     let mut pressure = vec![0.0; u.len()];

@@ -176,8 +176,8 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
     Ok(fallbacks.into_inner())
 }
 
-/// Completes the fluid rows `0..rows` of an assembled pressure equation ([`assemble_ppe`] or
-/// [`assemble_dg`], before the Dirichlet columns of the wall rows are folded in) with the term
+/// Completes the fluid rows `0..rows` of an assembled pressure equation (after [`assemble_ppe`]
+/// or [`assemble_dg`]; the wall rows are another equation's) with the term
 /// the symmetric pressure gradient adds to the projection, so the equation solved is the one the
 /// velocity correction applies, for any pressure level:
 ///
@@ -190,7 +190,7 @@ pub fn assemble_dg<D: Dim, K: Kernel<D>>(
 /// `cof(A)/ρ`), which matches the divergence of the *difference* part of `G`; the second sum is
 /// the flow divergence of the constant-pressure part `p c/ρ`. `c_i` (`level`, one vector per
 /// fluid particle, the symmetric gradient of `p = 1`; a caller may set it to 0 where the term
-/// is not wanted, the scenes in a free surface's band) vanishes where the support is full and
+/// is not wanted, as the flow scenes do in a free surface's band) vanishes where the support is full and
 /// the particles are a lattice, and is first order in the disorder elsewhere; without this term
 /// the projection of a field whose pressure is large compared with its variation over a support
 /// (the bottom of a deep pool, a corner under a run-up) overshoots wherever `c` is not small,
