@@ -865,10 +865,10 @@ fn cases() -> Vec<Case> {
             "open",
         ),
         (
-            "surface pressure extrapolated with the symmetric gradient",
+            "surface pressure extrapolated with the symmetric gradient without its level term",
             TANK,
             "[free_surface]",
-            "[pressure]\ngradient = \"symmetric\"\n[free_surface]\nextrapolate = true",
+            "[pressure]\ngradient = \"symmetric\"\nlevel_consistent = false\n[free_surface]\nextrapolate = true",
             "free_surface.extrapolate",
         ),
         (

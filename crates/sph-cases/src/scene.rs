@@ -1064,15 +1064,21 @@ impl Validator<'_> {
                  pressure.renormalise = true (without it, it is \"symmetric\")",
             );
         }
+        let renormalised_difference =
+            c.renormalise && c.gradient == sph_operators::GradientForm::Difference;
+        let symmetric_with_level = !c.renormalise
+            && c.gradient == sph_operators::GradientForm::Symmetric
+            && c.level_consistent;
         if c.free_surface.is_some_and(|f| f.zero_pressure_depth > 0.0)
-            && !(c.renormalise && c.gradient == sph_operators::GradientForm::Difference)
+            && !(renormalised_difference || symmetric_with_level)
         {
             return self.bad(
                 "free_surface.extrapolate",
                 "needs the renormalised difference gradient (pressure.gradient = \"difference\", \
-                 pressure.renormalise = true): with the symmetric gradient the Robin rows keep a \
-                 still tank's level but put the dam-break front 14 % ahead and add energy at \
-                 impacts (docs/hard-cases.md, \"Flow numerics\")",
+                 pressure.renormalise = true) or the symmetric gradient with its level term \
+                 (pressure.level_consistent = true): without the level term the symmetric \
+                 gradient's Robin rows add energy at impacts (docs/hard-cases.md, \"Flow \
+                 numerics\")",
             );
         }
         if s.solver_tolerance
