@@ -266,7 +266,8 @@ pub(crate) fn project<D: Dim>(
     let closed = !e.dirichlet.iter().any(|d| *d);
     // The level term fixes the pressure's constant (`p c` is not invariant under it): only a free
     // surface may fix it, so a closed domain keeps its gauge and its lift, without the term.
-    if e.config.level_consistent && !closed {
+    let level_term = e.config.level_consistent && !closed;
+    if level_term {
         let clock = Instant::now();
         gradient(
             &ctx,
@@ -275,20 +276,16 @@ pub(crate) fn project<D: Dim>(
             None,
             &mut e.level[..nf],
         );
-        // Not in the free surface's band (a free-surface particle in the support, the particle
-        // itself included): there `c_i` measures the support the surface cuts, not disorder,
-        // and `p_i c_i` is the push that gives the surface rows the pressure gradient their
-        // `p = 0` leaves out (docs/physics.md).
-        let dirichlet = &e.dirichlet;
-        e.level[..nf]
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(256)
-            .for_each(|(i, c)| {
-                if ctx.neighbors_of(i).any(|j| dirichlet[j]) {
-                    *c = D::Vector::ZERO;
-                }
-            });
+        // Not in the free surface's band: there `c_i` measures the support the surface cuts,
+        // not disorder, and `p_i c_i` is the push that gives the surface rows the pressure
+        // gradient their `p = 0` leaves out (docs/physics.md). The band is kept for the
+        // density correction below.
+        mark_surface_band(&ctx, &e.dirichlet, &mut e.surface_band[..nf]);
+        for (c, b) in e.level[..nf].iter_mut().zip(&e.surface_band[..nf]) {
+            if *b {
+                *c = D::Vector::ZERO;
+            }
+        }
         add_level_term(&ctx, &e.level, densities, flags, nf, &mut e.matrix)
             .map_err(|source| StepError::Assembly { step, t, source })?;
         phases.add(Phase::Assembly, clock);
@@ -391,7 +388,7 @@ pub(crate) fn project<D: Dim>(
     }
     let density_correction = if position_form > 0.0 {
         Some(correct_density(
-            e, x, densities, dt, equation, robin, step, t, phases,
+            e, x, densities, dt, equation, robin, level_term, step, t, phases,
         )?)
     } else {
         None
@@ -436,6 +433,7 @@ fn correct_density<D: Dim>(
     dt: f64,
     equation: Equation,
     robin: f64,
+    level_term: bool,
     step: usize,
     t: f64,
     phases: &mut PhaseTimes,
@@ -444,11 +442,11 @@ fn correct_density<D: Dim>(
     let nf = e.fluid;
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     let clock = Instant::now();
-    e.surface_band[..nf]
-        .par_iter_mut()
-        .enumerate()
-        .with_min_len(256)
-        .for_each(|(i, b)| *b = ctx.neighbors_of(i).any(|j| e.dirichlet[j]));
+    // The level term (`level_term`: it was added to the projection's matrix) has marked the
+    // band of these flags already.
+    if !level_term {
+        mark_surface_band(&ctx, &e.dirichlet, &mut e.surface_band[..nf]);
+    }
     kernel_sum_excess(
         &ctx,
         ctx.volumes[0],
@@ -461,7 +459,6 @@ fn correct_density<D: Dim>(
     let scale = alpha / (dt * dt);
     // The displacement is the difference gradient of `q` (below), whose divergence the
     // assembled Laplacian matches: the level term belongs to the symmetric gradient only.
-    let level_term = e.config.level_consistent && e.dirichlet.iter().any(|d| *d);
     let reuse = equation == Equation::Ppe && !level_term;
     if reuse {
         // The projection's matrix is this equation's: only the right-hand side changes (wall
@@ -611,6 +608,20 @@ fn boundary_rows<D: Dim, K: Kernel<D>>(
 /// back towards the lattice's by the fraction `α` of its error per step. Particles with a
 /// free-surface particle (`dirichlet`) in their support keep their source. `rate = 0`: nothing
 /// is done.
+/// `band[i]` for the first `band.len()` particles: whether a free-surface particle (`dirichlet`)
+/// is in particle `i`'s support, itself included — the free surface's band, where kernel sums
+/// measure the support the surface cuts.
+fn mark_surface_band<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    dirichlet: &[bool],
+    band: &mut [bool],
+) {
+    band.par_iter_mut()
+        .enumerate()
+        .with_min_len(256)
+        .for_each(|(i, b)| *b = ctx.neighbors_of(i).any(|j| dirichlet[j]));
+}
+
 fn relax_density<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     rate: f64,
@@ -623,11 +634,7 @@ fn relax_density<D: Dim, K: Kernel<D>>(
     if rate <= 0.0 || nf == 0 {
         return;
     }
-    band[..nf]
-        .par_iter_mut()
-        .enumerate()
-        .with_min_len(256)
-        .for_each(|(i, b)| *b = ctx.neighbors_of(i).any(|j| dirichlet[j]));
+    mark_surface_band(ctx, dirichlet, &mut band[..nf]);
     kernel_sum_excess(ctx, ctx.volumes[0], band, &mut excess[..nf]);
     for (s, e) in source.iter_mut().zip(&excess[..nf]) {
         *s -= rate * e;

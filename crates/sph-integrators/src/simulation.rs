@@ -116,7 +116,8 @@ pub(crate) struct Engine<D: Dim> {
     pub(crate) rhs: Vec<f64>,
     pub(crate) matrix: CsrMatrix,
     pub(crate) grad_p: Vec<D::Vector>,
-    /// Level-consistent projection: `p ≡ 1` and its symmetric gradient `c_i` per particle.
+    /// Level-consistent projection: `p ≡ 1` and its symmetric gradient `c_i` per particle (zero in
+    /// the free surface's band, `surface_band`, which it shares with the density correction).
     pub(crate) ones: Vec<f64>,
     pub(crate) level: Vec<D::Vector>,
     pub(crate) scalar: Vec<f64>,
@@ -510,9 +511,11 @@ impl<D: Dim> Simulation<D> {
         e.dirichlet.resize(n, false);
         e.no_dirichlet.resize(n, false);
         e.source.resize(n, 0.0);
+        if e.config.density_relaxation > 0.0 || e.config.level_consistent {
+            e.surface_band.resize(n, false);
+        }
         if e.config.density_relaxation > 0.0 {
             e.excess.resize(n, 0.0);
-            e.surface_band.resize(n, false);
             e.potential.resize(n, 0.0);
             e.correction.resize(n, D::Vector::ZERO);
         }
