@@ -291,7 +291,7 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
     );
     let config = scene.sim_config();
     crate::say!(
-        "  operators   {} pressure gradient, {}renormalised, {} Laplacian{}, DG Hessian {}",
+        "  operators   {} pressure gradient, {}renormalised, {} Laplacian{}{}, DG Hessian {}",
         match config.gradient {
             sph_operators::GradientForm::Difference => "difference Σ V_j (p_j − p_i) ∇W_ij",
             sph_operators::GradientForm::Symmetric => "symmetric Σ V_j (p_i + p_j) ∇W_ij",
@@ -305,6 +305,11 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
         },
         if config.level_consistent {
             " + the gradient's level term D(p c/ρ), c = 2 Σ V_j ∇W_ij"
+        } else {
+            ""
+        },
+        if config.normalised_gradient {
+            ", gradient divided by ∇·r/D away from the free surface"
         } else {
             ""
         },

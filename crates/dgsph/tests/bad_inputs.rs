@@ -858,6 +858,13 @@ fn cases() -> Vec<Case> {
             "pressure.level_consistent",
         ),
         (
+            "normalised gradient with renormalisation",
+            TANK,
+            "[free_surface]",
+            "[pressure]\ngradient = \"difference\"\nrenormalise = true\nnormalise_gradient = true\n[free_surface]",
+            "pressure.normalise_gradient",
+        ),
+        (
             "open face named with a multi-byte character",
             TANK,
             "open = [\"+y\"]",

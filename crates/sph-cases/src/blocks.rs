@@ -397,6 +397,11 @@ pub struct PressureSpec {
     /// `sph_pressure::add_level_term`). Only with the symmetric gradient, not renormalised.
     /// Default: true where that is the gradient (flow and dam-break scenes), false otherwise.
     pub level_consistent: Option<bool>,
+    /// Divide each fluid particle's pressure gradient by `∇·r_i / D` away from the free
+    /// surface, so the velocity correction applies the gradient the Laplacian stands for (see
+    /// `sph_integrators::SimConfig::normalised_gradient`). Not with `renormalise`. Default
+    /// false.
+    pub normalise_gradient: Option<bool>,
     /// Density relaxation `α` in [0, 1] (Asai et al. 2012): the projection pulls each
     /// particle's summation density back towards the lattice's by the fraction `α` of its
     /// error per step (away from free surfaces). Default: `FLOW_DENSITY_RELAXATION` (0.05) for

@@ -516,6 +516,8 @@ impl Scene {
         config.level_consistent = self.pressure.level_consistent.unwrap_or(
             config.gradient == sph_operators::GradientForm::Symmetric && !config.renormalise,
         );
+        // An option (docs/physics.md, "The gradient's lattice factor (option)").
+        config.normalised_gradient = self.pressure.normalise_gradient.unwrap_or(false);
         // Flow scenes relax their packing by displacements (docs/physics.md, "Density
         // relaxation"); the paper's cases keep the paper's projection.
         config.density_relaxation = self.pressure.density_relaxation.unwrap_or(if flow {
@@ -1055,6 +1057,13 @@ impl Validator<'_> {
                 "completes the equation for the symmetric gradient without renormalisation \
                  (pressure.gradient = \"symmetric\", pressure.renormalise = false); the other \
                  gradients are exact for a constant pressure and need no level term",
+            );
+        }
+        if c.normalised_gradient && c.renormalise {
+            return self.bad(
+                "pressure.normalise_gradient",
+                "needs a gradient without renormalisation (pressure.renormalise = false): the \
+                 renormalised gradient is exact for linear fields already",
             );
         }
         if c.gradient == sph_operators::GradientForm::Adjoint && !c.renormalise {

@@ -131,7 +131,14 @@ pub(crate) fn prepare<D: Dim>(
             e.dirichlet[e.fluid..].fill(false);
             phases.add(Phase::FreeSurface, clock);
         }
-        None => e.dirichlet.fill(false),
+        None => {
+            e.dirichlet.fill(false);
+            if e.config.normalised_gradient {
+                let clock = Instant::now();
+                free_surface_indicator(&ctx, &mut e.div_r);
+                phases.add(Phase::FreeSurface, clock);
+            }
+        }
     }
     Ok(fallbacks)
 }
@@ -267,6 +274,12 @@ pub(crate) fn project<D: Dim>(
     // The level term fixes the pressure's constant (`p c` is not invariant under it): only a free
     // surface may fix it, so a closed domain keeps its gauge and its lift, without the term.
     let level_term = e.config.level_consistent && !closed;
+    let normalised = e.config.normalised_gradient;
+    // The free surface's band (kept for the density correction below).
+    let band_marked = (level_term || normalised) && !closed;
+    if band_marked {
+        mark_surface_band(&ctx, &e.dirichlet, &mut e.surface_band[..nf]);
+    }
     if level_term {
         let clock = Instant::now();
         gradient(
@@ -276,11 +289,13 @@ pub(crate) fn project<D: Dim>(
             None,
             &mut e.level[..nf],
         );
+        if normalised {
+            let band = band_marked.then_some(&e.surface_band[..nf]);
+            normalise_gradient::<D>(&e.div_r, band, &mut e.level[..nf]);
+        }
         // Not in the free surface's band: there `c_i` measures the support the surface cuts,
         // not disorder, and `p_i c_i` is the push that gives the surface rows the pressure
-        // gradient their `p = 0` leaves out (docs/physics.md). The band is kept for the
-        // density correction below.
-        mark_surface_band(&ctx, &e.dirichlet, &mut e.surface_band[..nf]);
+        // gradient their `p = 0` leaves out (docs/physics.md).
         for (c, b) in e.level[..nf].iter_mut().zip(&e.surface_band[..nf]) {
             if *b {
                 *c = D::Vector::ZERO;
@@ -350,6 +365,10 @@ pub(crate) fn project<D: Dim>(
         w.ghost_values(x, densities, gravity, pressures);
     }
     gradient(&ctx, pressures, e.config.gradient, l, &mut e.grad_p[..nf]);
+    if normalised {
+        let band = band_marked.then_some(&e.surface_band[..nf]);
+        normalise_gradient::<D>(&e.div_r, band, &mut e.grad_p[..nf]);
+    }
     for (((un, us), g), rho) in u_new[..nf]
         .iter_mut()
         .zip(u_star)
@@ -388,7 +407,17 @@ pub(crate) fn project<D: Dim>(
     }
     let density_correction = if position_form > 0.0 {
         Some(correct_density(
-            e, x, densities, dt, equation, robin, level_term, step, t, phases,
+            e,
+            x,
+            densities,
+            dt,
+            equation,
+            robin,
+            level_term,
+            band_marked,
+            step,
+            t,
+            phases,
         )?)
     } else {
         None
@@ -434,6 +463,7 @@ fn correct_density<D: Dim>(
     equation: Equation,
     robin: f64,
     level_term: bool,
+    band_marked: bool,
     step: usize,
     t: f64,
     phases: &mut PhaseTimes,
@@ -442,9 +472,8 @@ fn correct_density<D: Dim>(
     let nf = e.fluid;
     let l = e.config.renormalise.then_some(&e.corrections[..]);
     let clock = Instant::now();
-    // The level term (`level_term`: it was added to the projection's matrix) has marked the
-    // band of these flags already.
-    if !level_term {
+    // The projection may have marked the band of these flags already.
+    if !band_marked {
         mark_surface_band(&ctx, &e.dirichlet, &mut e.surface_band[..nf]);
     }
     kernel_sum_excess(
@@ -600,14 +629,6 @@ fn boundary_rows<D: Dim, K: Kernel<D>>(
     Ok(())
 }
 
-/// Density relaxation, velocity form (`SimConfig::density_relaxation`, Asai et al. 2012):
-/// subtracts `rate · e_i` from each fluid particle's source (`source.len()` particles), `e_i` its
-/// kernel-sum excess over a perfect lattice of the first particle's volume (a scene's particles
-/// share one spacing). With `rate = α/Δt` the projection's target is `∇·u_i = α e_i / Δt`, with
-/// `rate = α` DG's is `det A_i − 1 = α e_i`: by continuity the summation density then moves
-/// back towards the lattice's by the fraction `α` of its error per step. Particles with a
-/// free-surface particle (`dirichlet`) in their support keep their source. `rate = 0`: nothing
-/// is done.
 /// `band[i]` for the first `band.len()` particles: whether a free-surface particle (`dirichlet`)
 /// is in particle `i`'s support, itself included — the free surface's band, where kernel sums
 /// measure the support the surface cuts.
@@ -622,6 +643,34 @@ fn mark_surface_band<D: Dim, K: Kernel<D>>(
         .for_each(|(i, b)| *b = ctx.neighbors_of(i).any(|j| dirichlet[j]));
 }
 
+/// Divides `grad[i]` by `∇·r_i / D` (`SimConfig::normalised_gradient`) for the particles
+/// outside the free surface's band (`band`, when the domain has a free surface) whose `∇·r_i`
+/// is at least half the lattice's (an isolated particle's gradient is left alone):
+///
+/// ```text
+/// (∇p)_i ← D (∇p)_i / (∇·r)_i,   (∇·r)_i = −Σ_j V_j x_ij·∇W_ij  (= D β on a perfect lattice)
+/// ```
+fn normalise_gradient<D: Dim>(div_r: &[f64], band: Option<&[bool]>, grad: &mut [D::Vector]) {
+    let dim = D::DIM as f64;
+    grad.par_iter_mut()
+        .enumerate()
+        .with_min_len(1024)
+        .for_each(|(i, g)| {
+            let in_band = band.is_some_and(|b| b[i]);
+            if !in_band && div_r[i] >= 0.5 * dim {
+                *g *= dim / div_r[i];
+            }
+        });
+}
+
+/// Density relaxation, velocity form (`SimConfig::density_relaxation`, Asai et al. 2012):
+/// subtracts `rate · e_i` from each fluid particle's source (`source.len()` particles), `e_i` its
+/// kernel-sum excess over a perfect lattice of the first particle's volume (a scene's particles
+/// share one spacing). With `rate = α/Δt` the projection's target is `∇·u_i = α e_i / Δt`, with
+/// `rate = α` DG's is `det A_i − 1 = α e_i`: by continuity the summation density then moves
+/// back towards the lattice's by the fraction `α` of its error per step. Particles with a
+/// free-surface particle (`dirichlet`) in their support keep their source. `rate = 0`: nothing
+/// is done.
 fn relax_density<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     rate: f64,

@@ -52,6 +52,16 @@ pub fn density_at_points<D: Dim, K: Kernel<D>>(
 /// [`kernel_sum_excess`] measures against. Near 1; the difference is the kernel's lattice error
 /// at `h/Δx`.
 pub fn lattice_kernel_sum<D: Dim, K: Kernel<D>>(kernel: &K, volume: f64) -> f64 {
+    over_lattice::<D, K>(kernel, volume, |x| kernel.w(x.length())) * volume
+}
+
+/// `Σ_k f(k Δx)` over the points of an infinite perfect lattice of spacing `Δx = V^{1/D}`
+/// (`k` over `ℤ^D`, the origin included) within the kernel's support; `f` must vanish beyond it.
+pub(crate) fn over_lattice<D: Dim, K: Kernel<D>>(
+    kernel: &K,
+    volume: f64,
+    f: impl Fn(D::Vector) -> f64,
+) -> f64 {
     let dx = volume.powf(1.0 / D::DIM as f64);
     let reach = (kernel.support_radius() / dx).ceil() as i64;
     let side = 2 * reach + 1;
@@ -64,10 +74,9 @@ pub fn lattice_kernel_sum<D: Dim, K: Kernel<D>>(kernel: &K, volume: f64) -> f64 
                 rest /= side;
                 k as f64 * dx
             });
-            kernel.w(x.length())
+            f(x)
         })
         .sum::<f64>()
-        * volume
 }
 
 /// Relative excess of each particle's Shepard sum over a perfect lattice's,

@@ -20,6 +20,7 @@
 //! | [`density_summation`], [`density_at_points`] | ρ_a = Σ_b m_b W_ab | Eq. 31 |
 //! | [`kernel_sum_excess`], [`lattice_kernel_sum`] | Σ_j V_j W_ij / S_lattice − 1 | Eq. 31 over a perfect lattice's |
 //! | [`gradient`] | Σ V_j (f_j − f_i) ∇W_ij, or the symmetric Σ V_j (f_i + f_j) ∇W_ij | — |
+//! | [`lattice_gradient_factor`] | β = −(1/D) Σ_k V x_k·∇W(x_k) over a perfect lattice | its lattice error |
 //! | [`divergence`] | Σ V_j (u_j − u_i)·∇W_ij | Eq. 3 source |
 //! | [`velocity_gradient`], [`deformation_gradient`] | F = I + Σ V_j (Δx_j − Δx_i) ⊗ ∇W_ij | Eq. 26 |
 //! | [`laplacian`] | 2 Σ V_j (f_i − f_j) F_ij (Morris 1997) | Eq. 3 LHS |
@@ -95,7 +96,7 @@ pub use deformation::{Invariants, deformation_gradient, invariants, velocity_gra
 pub use density::{density_at_points, density_summation, kernel_sum_excess, lattice_kernel_sum};
 pub use divergence::divergence;
 pub use free_surface::{free_surface_indicator, free_surface_scan};
-pub use gradient::{GradientForm, gradient};
+pub use gradient::{GradientForm, gradient, lattice_gradient_factor};
 pub use hessian::{HessianForm, hessian, hessian_stencil_eq25, hessian_stencil_eq25_contracted};
 pub use laplacian::laplacian;
 pub use quadratic_fit::{QuadraticFitStats, hessian_quadratic_fit, hessian_stencil_fit};
