@@ -359,6 +359,8 @@ pub struct FreeSurfaceSpec {
     pub scan: Option<bool>,
     /// Put `p = 0` half a particle spacing outside the free-surface particles, where a
     /// lattice's fluid ends (a Robin row), instead of at them (the paper's Dirichlet rows).
+    /// Default: on for `flow` and `dam_break` scenes with the symmetric gradient and its level
+    /// term (their defaults), off otherwise.
     pub extrapolate: Option<bool>,
 }
 
@@ -399,8 +401,8 @@ pub struct PressureSpec {
     pub level_consistent: Option<bool>,
     /// Divide each fluid particle's pressure gradient by `∇·r_i / D` away from the free
     /// surface, so the velocity correction applies the gradient the Laplacian stands for (see
-    /// `sph_integrators::SimConfig::normalised_gradient`). Not with `renormalise`. Default
-    /// false.
+    /// `sph_integrators::SimConfig::normalised_gradient`). Not with `renormalise`. Default: true
+    /// for `flow` and `dam_break` scenes without renormalisation, false otherwise.
     pub normalise_gradient: Option<bool>,
     /// Density relaxation `α` in [0, 1] (Asai et al. 2012): the projection pulls each
     /// particle's summation density back towards the lattice's by the fraction `α` of its

@@ -488,17 +488,6 @@ impl Scene {
         let mut config = SimConfig::new(self.kernel, self.h());
         config.rho0 = self.rho0();
         let flow = self.case.uses_blocks();
-        config.free_surface = self.free_surface.map(|f| FreeSurface {
-            div_r_threshold: f
-                .div_r_threshold
-                .unwrap_or(FreeSurface::default_for(self.dim).div_r_threshold),
-            scan: f.scan.unwrap_or(flow),
-            zero_pressure_depth: if f.extrapolate.unwrap_or(false) {
-                0.5 * self.dx
-            } else {
-                0.0
-            },
-        });
         let gradient = self.pressure.gradient.unwrap_or(if flow {
             GradientChoice::Symmetric
         } else {
@@ -516,8 +505,29 @@ impl Scene {
         config.level_consistent = self.pressure.level_consistent.unwrap_or(
             config.gradient == sph_operators::GradientForm::Symmetric && !config.renormalise,
         );
-        // An option (docs/physics.md, "The gradient's lattice factor (option)").
-        config.normalised_gradient = self.pressure.normalise_gradient.unwrap_or(false);
+        // Flow scenes divide the gradient's lattice factor out (docs/physics.md, "The gradient's
+        // lattice factor"); the paper's renormalised gradient needs no factor.
+        config.normalised_gradient = self
+            .pressure
+            .normalise_gradient
+            .unwrap_or(flow && !config.renormalise);
+        // Flow scenes put `p = 0` half a spacing outside the surface particles (Robin rows) where
+        // their gradient allows it (docs/physics.md, "Where p = 0 is put").
+        let symmetric_with_level = !config.renormalise
+            && config.gradient == sph_operators::GradientForm::Symmetric
+            && config.level_consistent;
+        let robin_default = flow && symmetric_with_level;
+        config.free_surface = self.free_surface.map(|f| FreeSurface {
+            div_r_threshold: f
+                .div_r_threshold
+                .unwrap_or(FreeSurface::default_for(self.dim).div_r_threshold),
+            scan: f.scan.unwrap_or(flow),
+            zero_pressure_depth: if f.extrapolate.unwrap_or(robin_default) {
+                0.5 * self.dx
+            } else {
+                0.0
+            },
+        });
         // Flow scenes relax their packing by displacements (docs/physics.md, "Density
         // relaxation"); the paper's cases keep the paper's projection.
         config.density_relaxation = self.pressure.density_relaxation.unwrap_or(if flow {

@@ -235,7 +235,7 @@ pub struct SimConfig {
     /// settles `1/β` high (2.7 % for Wendland C2 at `h = 1.3 Δx`). Particles in the free
     /// surface's band keep the plain gradient (there `∇·r` measures the support the surface cuts).
     /// Not with renormalisation (its gradient is exact for linear fields already). Default
-    /// `false` (docs/physics.md, "The gradient's lattice factor (option)").
+    /// `false`; flow scenes turn it on (docs/physics.md, "The gradient's lattice factor").
     pub normalised_gradient: bool,
     /// Density relaxation `α` (Asai et al. 2012, J. Appl. Math. 2012, 139583): each step moves
     /// every fluid particle's summation density back towards a perfect lattice's by the fraction

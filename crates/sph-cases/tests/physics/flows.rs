@@ -577,8 +577,8 @@ fn a_sealed_tank_under_gravity_stays_at_rest<D>() {
 }
 
 sph_core::dim_tests! {
-/// `[free_surface] extrapolate` with the symmetric gradient and its level term (a scene-key
-/// combination, not a default): an open tank on a lattice under gravity, whose surface particles
+/// `[free_surface] extrapolate` with the symmetric gradient and its level term (the flow scenes'
+/// defaults): an open tank on a lattice under gravity, whose surface particles
 /// carry `ρ g dx/2` instead of 0, stays below 1 % of √(gH) to t = 0.5 (every scheme, 2D and 3D),
 /// where `p = 0` at the top particles lets the surface row sink (it feels half the pressure
 /// gradient it needs) at over 3 %.
