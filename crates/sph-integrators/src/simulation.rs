@@ -511,7 +511,10 @@ impl<D: Dim> Simulation<D> {
         e.dirichlet.resize(n, false);
         e.no_dirichlet.resize(n, false);
         e.source.resize(n, 0.0);
-        if e.config.density_relaxation > 0.0 || e.config.level_consistent {
+        if e.config.density_relaxation > 0.0
+            || e.config.level_consistent
+            || e.config.normalised_gradient
+        {
             e.surface_band.resize(n, false);
         }
         if e.config.density_relaxation > 0.0 {
