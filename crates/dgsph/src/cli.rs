@@ -215,9 +215,14 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
     }
     if let Some(f) = scene.sim_config().free_surface {
         effects.push(format!(
-            "free surface (∇·r < {}{})",
+            "free surface (∇·r < {}{}; p = 0 {})",
             f.div_r_threshold,
-            if f.scan { ", or an empty umbrella" } else { "" }
+            if f.scan { ", or an empty umbrella" } else { "" },
+            if f.zero_pressure_depth > 0.0 {
+                "half a spacing outside the surface particles"
+            } else {
+                "at the surface particles"
+            }
         ));
     }
     if walls > 0 {
