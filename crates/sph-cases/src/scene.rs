@@ -513,10 +513,7 @@ impl Scene {
             .unwrap_or(flow && !config.renormalise);
         // Flow scenes put `p = 0` half a spacing outside the surface particles (Robin rows) where
         // their gradient allows it (docs/physics.md, "Where p = 0 is put").
-        let symmetric_with_level = !config.renormalise
-            && config.gradient == sph_operators::GradientForm::Symmetric
-            && config.level_consistent;
-        let robin_default = flow && symmetric_with_level;
+        let robin_default = flow && symmetric_with_level_term(&config);
         config.free_surface = self.free_surface.map(|f| FreeSurface {
             div_r_threshold: f
                 .div_r_threshold
@@ -886,6 +883,13 @@ fn positive(x: f64) -> bool {
     x.is_finite() && x > 0.0
 }
 
+/// Whether the pressure gradient is the symmetric one, not renormalised, with its level term in
+/// the pressure equation: the combination the Robin surface rows need besides the renormalised
+/// difference gradient (and get by default in flow scenes).
+fn symmetric_with_level_term(c: &SimConfig) -> bool {
+    !c.renormalise && c.gradient == sph_operators::GradientForm::Symmetric && c.level_consistent
+}
+
 impl Validator<'_> {
     fn bad(&self, field: impl Into<String>, message: impl Into<String>) -> Check {
         Err(CaseError::Invalid {
@@ -1085,9 +1089,7 @@ impl Validator<'_> {
         }
         let renormalised_difference =
             c.renormalise && c.gradient == sph_operators::GradientForm::Difference;
-        let symmetric_with_level = !c.renormalise
-            && c.gradient == sph_operators::GradientForm::Symmetric
-            && c.level_consistent;
+        let symmetric_with_level = symmetric_with_level_term(&c);
         if c.free_surface.is_some_and(|f| f.zero_pressure_depth > 0.0)
             && !(renormalised_difference || symmetric_with_level)
         {
