@@ -239,12 +239,14 @@ pub struct SimConfig {
     pub normalised_gradient: bool,
     /// Density relaxation `α` (Asai et al. 2012, J. Appl. Math. 2012, 139583): each step moves
     /// every fluid particle's summation density back towards a perfect lattice's by the fraction
-    /// `α` of its excess `e_i` ([`kernel_sum_excess`](sph_operators::kernel_sum_excess)), so
+    /// `α` of its excess `e_i`
+    /// ([`kernel_sum_excess_near_surface`](sph_operators::kernel_sum_excess_near_surface)), so
     /// particles packed closer than their volumes stand for are moved apart (and spread ones
     /// drawn together) and the volume the velocity divergence alone lets drift is restored; how,
-    /// [`density_relaxation_form`](Self::density_relaxation_form) says. Only where no
-    /// free-surface particle is in the support (there the sum measures the cut support). `0`
-    /// (the default): off (scenes of general flows turn it on; docs/physics.md).
+    /// [`density_relaxation_form`](Self::density_relaxation_form) says. In a free surface's band
+    /// the sum is measured against a lattice cut at the particle's depth; the surface particles
+    /// are left alone. `0` (the default): off (scenes of general flows turn it on;
+    /// docs/physics.md).
     pub density_relaxation: f64,
     /// How density relaxation acts: through the velocities (default) or the positions.
     pub density_relaxation_form: DensityRelaxationForm,

@@ -15,7 +15,7 @@ use sph_neighbors::NeighborSearch;
 use sph_operators::{
     SphContext, correction_matrices, deformation_gradient, divergence, free_surface_indicator,
     free_surface_scan, grad_factors, grad_factors_and_values, grad_factors_from_squared_distances,
-    gradient, invariants, kernel_sum_excess, velocity_gradient,
+    gradient, invariants, kernel_sum_excess_near_surface, velocity_gradient,
 };
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, add_level_term, assemble_dg, assemble_ppe,
@@ -444,10 +444,12 @@ pub(crate) fn project<D: Dim>(
 /// ```
 ///
 /// with `e_i = ρ̂_i/ρ̂_lattice − 1` the kernel-sum excess
-/// ([`kernel_sum_excess`]), set to 0 where a free-surface particle is in the support (there the
-/// sum measures the cut support). The matrix is the PPE's (paper Eq. 3's operator; assembled
-/// here for DG-ISPH and with the level term, whose projection's matrix is another; otherwise the
-/// projection's is reused), the solve starts from zero (no
+/// ([`kernel_sum_excess_near_surface`]): where a free-surface particle is in the support, against
+/// the sum of a lattice cut by a flat face at the depth the particle's own truncation says (0
+/// on the surface particles and where the cut is more than a flat face's). The matrix is the
+/// PPE's (paper Eq. 3's operator; assembled here for DG-ISPH and with the level term, whose
+/// projection's matrix is another; otherwise the projection's is reused), the solve starts
+/// from zero (no
 /// state carried between steps: a resumed run is the same bits). The displacements are left in
 /// `e.correction` for the scheme to add to the step's; the velocities are untouched, so the
 /// correction restores the volume the divergence-free projection lets drift (Shao & Lo's
@@ -476,9 +478,10 @@ fn correct_density<D: Dim>(
     if !band_marked {
         mark_surface_band(&ctx, &e.dirichlet, &mut e.surface_band[..nf]);
     }
-    kernel_sum_excess(
+    kernel_sum_excess_near_surface(
         &ctx,
         ctx.volumes[0],
+        &e.dirichlet,
         &e.surface_band[..nf],
         &mut e.excess[..nf],
     );
@@ -669,8 +672,9 @@ fn normalise_gradient<D: Dim>(div_r: &[f64], band: Option<&[bool]>, grad: &mut [
 /// share one spacing). With `rate = α/Δt` the projection's target is `∇·u_i = α e_i / Δt`, with
 /// `rate = α` DG's is `det A_i − 1 = α e_i`: by continuity the summation density then moves
 /// back towards the lattice's by the fraction `α` of its error per step. Particles with a
-/// free-surface particle (`dirichlet`) in their support keep their source. `rate = 0`: nothing
-/// is done.
+/// free-surface particle (`dirichlet`) in their support are measured against a lattice cut at
+/// their depth ([`kernel_sum_excess_near_surface`]); the surface particles keep their source.
+/// `rate = 0`: nothing is done.
 fn relax_density<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     rate: f64,
@@ -684,7 +688,7 @@ fn relax_density<D: Dim, K: Kernel<D>>(
         return;
     }
     mark_surface_band(ctx, dirichlet, &mut band[..nf]);
-    kernel_sum_excess(ctx, ctx.volumes[0], band, &mut excess[..nf]);
+    kernel_sum_excess_near_surface(ctx, ctx.volumes[0], dirichlet, band, &mut excess[..nf]);
     for (s, e) in source.iter_mut().zip(&excess[..nf]) {
         *s -= rate * e;
     }

@@ -404,7 +404,7 @@ impl<D: Dim> Simulation<D> {
     /// slot) is dropped in any case, so that whether the step after a renumbering starts its
     /// solver afresh is known before it (see [`Simulation::solver_keeps_nothing`]).
     pub(crate) fn reorder_by_cell(&mut self) {
-        self.engine.solver.invalidate_setup();
+        self.invalidate_solver_setup();
         let n = self.particles.len();
         self.order.ensure(n);
         let nf = self.engine.fluid.min(n);
@@ -431,20 +431,23 @@ impl<D: Dim> Simulation<D> {
         o.index_slots();
     }
 
-    /// Forgets the set-up work the linear solver keeps between steps (the AMG hierarchy), so
-    /// the next step solves as a simulation restored from a checkpoint of this state would.
-    /// The run loop calls it after every periodic checkpoint; [`Simulation::restore`] calls it
-    /// too.
+    /// Forgets the set-up work the linear solvers keep between steps (the AMG hierarchies of the
+    /// projection's solver and of the density correction's), so the next step solves as a
+    /// simulation restored from a checkpoint of this state would. The run loop calls it after
+    /// every periodic checkpoint; [`Simulation::restore`] calls it too.
     pub fn invalidate_solver_setup(&mut self) {
         self.engine.solver.invalidate_setup();
+        self.engine.correction_solver.invalidate_setup();
     }
 
-    /// Whether the next step's solves start as a restored simulation's would: the linear
-    /// solver keeps nothing from earlier steps that it would use (an AMG hierarchy is kept for
-    /// up to 10 solves, then rebuilt). A checkpoint taken where this holds resumes to the same
+    /// Whether the next step's solves start as a restored simulation's would: neither linear
+    /// solver (the projection's, the density correction's) keeps anything from earlier steps
+    /// that it would use (an AMG hierarchy is kept for up to 10 solves, then rebuilt). A checkpoint taken where this holds resumes to the same
     /// bits as the run that goes on.
     pub fn solver_keeps_nothing(&self) -> bool {
-        self.renumbers_next() || self.engine.solver.next_solve_is_fresh()
+        self.renumbers_next()
+            || (self.engine.solver.next_solve_is_fresh()
+                && self.engine.correction_solver.next_solve_is_fresh())
     }
 
     /// Whether the next step starts by renumbering the particles (every

@@ -731,7 +731,11 @@ fn ball_at_rest<D: Dim>(scale: f64, relaxation: f64, form: DensityRelaxationForm
 sph_core::dim_tests! {
     /// Density relaxation, velocity form: a ball packed 5 % closer per axis than its volumes
     /// stand for is pushed apart (every scheme; no force acts, so without the relaxation it
-    /// stays at rest), by a velocity linear in α, while a ball on its own lattice stays at rest.
+    /// stays at rest), by a velocity linear in α, while a ball on its own lattice moves by under
+    /// 3 % of that (2.0 % in 2D, 1.3 % in 3D): its surface band is measured against a lattice
+    /// cut by a flat face, and a ball's radius of 6 Δx reads as a few tenths of a per cent of
+    /// packing there (a flat face reads 0: `sph-operators`
+    /// `kernel_sum_excess_near_surface_reads_a_flat_face_as_the_bulk`).
     fn density_relaxation_pushes_a_compressed_ball_apart<D>() {
         let dt = 1e-3;
         for kind in SchemeKind::ALL {
@@ -746,8 +750,9 @@ sph_core::dim_tests! {
             let (_, still) = step(0.95, 0.0);
             assert!(largest(&still) == 0.0, "{kind:?}: {}", largest(&still));
             let (_, lattice) = step(1.0, 0.1);
-            assert!(largest(&lattice) < 1e-12, "{kind:?}: {}", largest(&lattice));
             let (x, u) = step(0.95, 0.1);
+            let rest = largest(&lattice) / largest(&u);
+            assert!(rest < 0.03, "{kind:?}: the lattice ball moves {rest} as much");
             let (_, u2) = step(0.95, 0.2);
             let outward: f64 = x.iter().zip(&u).map(|(x, u)| x.dot(*u)).sum();
             assert!(outward > 0.0, "{kind:?}: Σ x·u = {outward}");
@@ -760,7 +765,7 @@ sph_core::dim_tests! {
     /// Density relaxation, position form: the compressed ball is moved apart by displacements
     /// alone (velocities stay 0), linearly in α, by the same displacements for every scheme
     /// (from rest each solves the PPE operator's correction at xⁿ), while a ball on its own
-    /// lattice does not move.
+    /// lattice moves by under 3 % of that (its curved band, as in the velocity form's test).
     fn position_relaxation_moves_a_compressed_ball_apart<D>() {
         let dt = 1e-3;
         let mut first: Option<Vec<D::Vector>> = None;
@@ -780,8 +785,9 @@ sph_core::dim_tests! {
             };
             let largest = |u: &[D::Vector]| u.iter().map(|v| v.length()).fold(0.0, f64::max);
             let (_, lattice, _) = step(1.0, 0.1);
-            assert!(largest(&lattice) < 1e-14, "{kind:?}: {}", largest(&lattice));
             let (x0, d, u) = step(0.95, 0.1);
+            let rest = largest(&lattice) / largest(&d);
+            assert!(rest < 0.03, "{kind:?}: the lattice ball moves {rest} as much");
             let (_, d2, _) = step(0.95, 0.2);
             assert!(largest(&u) == 0.0, "{kind:?}: |u| = {}", largest(&u));
             let outward: f64 = x0.iter().zip(&d).map(|(x, d)| x.dot(*d)).sum();

@@ -98,11 +98,139 @@ pub fn kernel_sum_excess<D: Dim, K: Kernel<D>>(
         if skip[i] {
             return 0.0;
         }
-        let xi = ctx.positions[i];
-        let sum: f64 = ctx
-            .neighbors_of(i)
-            .map(|j| ctx.volumes[j] * ctx.kernel.w(ctx.pair(xi, j).length()))
-            .sum();
-        sum / lattice - 1.0
+        shepard_sum(ctx, i) / lattice - 1.0
+    });
+}
+
+/// `Σ_j V_j W_ij` over particle `i`'s neighbours, itself included.
+fn shepard_sum<D: Dim, K: Kernel<D>>(ctx: &SphContext<'_, D, K>, i: usize) -> f64 {
+    let xi = ctx.positions[i];
+    ctx.neighbors_of(i)
+        .map(|j| ctx.volumes[j] * ctx.kernel.w(ctx.pair(xi, j).length()))
+        .sum()
+}
+
+/// Rows of a cut lattice [`CutLattice`] tabulates at most: kernel supports up to 15 spacings.
+const MAX_CUT_ROWS: usize = 16;
+
+/// A perfect lattice of spacing `Δx = V^{1/D}` cut by a flat face: for a particle `k` rows below
+/// the face (`k = 0`: on it), its Shepard sum and the length of its truncation vector,
+///
+/// ```text
+/// S(k) = Σ_{p ∈ ℤ^D, p_1 ≤ k} V W(|p| Δx),   N(k) = |Σ_{p ∈ ℤ^D, p_1 ≤ k} V ∇W(p Δx)|,
+/// R(k) = h N(k) / S(k)
+/// ```
+///
+/// (`k` = 0 … `⌈support/Δx⌉`, where `S` is the whole lattice's [`lattice_kernel_sum`], `N = 0`).
+/// `R` falls from the face's row to 0 and does not depend on how densely the lattice is packed
+/// (`S` and `N` scale alike), so a particle's own ratio `R_i = h |Σ_j V_j ∇W_ij| / Σ_j V_j W_ij`
+/// says how deep below a flat face it stands and [`CutLattice::reference`] the Shepard sum it
+/// would have there: what [`kernel_sum_excess_near_surface`] measures a cut support against.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutLattice {
+    rows: usize,
+    sums: [f64; MAX_CUT_ROWS],
+    ratios: [f64; MAX_CUT_ROWS],
+}
+
+impl CutLattice {
+    /// The table for `kernel` and particle volume `volume`; `None` when the support spans more
+    /// than 15 spacings.
+    pub fn new<D: Dim, K: Kernel<D>>(kernel: &K, volume: f64) -> Option<Self> {
+        let dx = volume.powf(1.0 / D::DIM as f64);
+        let reach = (kernel.support_radius() / dx).ceil() as usize;
+        if reach >= MAX_CUT_ROWS {
+            return None;
+        }
+        let h = kernel.h();
+        let mut sums = [0.0; MAX_CUT_ROWS];
+        let mut ratios = [0.0; MAX_CUT_ROWS];
+        for k in 0..=reach {
+            // Lattice points are whole multiples of Δx: half a spacing decides the cut exactly.
+            let below = |x: D::Vector| x.get(0) < (k as f64 + 0.5) * dx;
+            let s = over_lattice::<D, K>(kernel, volume, |x| {
+                if below(x) { kernel.w(x.length()) } else { 0.0 }
+            }) * volume;
+            let n = over_lattice::<D, K>(kernel, volume, |x| {
+                let r = x.length();
+                if below(x) && r > 0.0 {
+                    kernel.dw_dr(r) * x.get(0) / r
+                } else {
+                    0.0
+                }
+            }) * volume;
+            sums[k] = s;
+            ratios[k] = if k == reach { 0.0 } else { h * n.abs() / s };
+        }
+        Some(Self {
+            rows: reach + 1,
+            sums,
+            ratios,
+        })
+    }
+
+    /// The Shepard sum of a lattice particle whose truncation ratio is `ratio` (`R_i` above),
+    /// linear in `R` between the rows; `None` when `ratio` exceeds the face row's `R(0)` (a
+    /// corner, a thin sheet or a jet: cut more than a flat face cuts).
+    pub fn reference(&self, ratio: f64) -> Option<f64> {
+        // Beyond the face row's ratio, or not a number: no flat face explains it.
+        if ratio.is_nan() || ratio > self.ratios[0] {
+            return None;
+        }
+        let last = self.rows - 1;
+        let mut k = 0;
+        while k < last && self.ratios[k + 1] >= ratio {
+            k += 1;
+        }
+        if k == last {
+            return Some(self.sums[last]);
+        }
+        let f = (self.ratios[k] - ratio) / (self.ratios[k] - self.ratios[k + 1]);
+        Some((1.0 - f) * self.sums[k] + f * self.sums[k + 1])
+    }
+}
+
+/// [`kernel_sum_excess`] where a free surface cuts the support: a particle of the surface's
+/// band (`band[i]`, a free-surface particle in its support) is measured against the Shepard sum
+/// it would have at its depth below a flat face of a perfect lattice ([`CutLattice`]),
+///
+/// ```text
+/// e_i = Σ_j V_j W_ij / S(R_i) − 1,   R_i = h |Σ_j V_j ∇W_ij| / Σ_j V_j W_ij
+/// ```
+///
+/// and the others against the whole lattice's. Zero on the free-surface particles themselves
+/// (`surface[i]`), where the cut is more than a flat face's (`R_i > R(0)`), and in the band when
+/// the support spans more than 15 spacings. On a lattice with a flat face every `e_i` is 0 to
+/// round-off; a band packed closer by a factor `s` per axis reads about `s^{−D} − 1`, as the
+/// bulk does. Only the first `out.len()` particles are evaluated.
+pub fn kernel_sum_excess_near_surface<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    volume: f64,
+    surface: &[bool],
+    band: &[bool],
+    out: &mut [f64],
+) {
+    assert!(out.len() <= ctx.len(), "at most one output per particle");
+    assert!(surface.len() >= out.len() && band.len() >= out.len());
+    let lattice = lattice_kernel_sum(ctx.kernel, volume);
+    let cut = CutLattice::new::<D, K>(ctx.kernel, volume);
+    let h = ctx.kernel.h();
+    gather(out, |i| {
+        if surface[i] {
+            return 0.0;
+        }
+        if !band[i] {
+            return shepard_sum(ctx, i) / lattice - 1.0;
+        }
+        let Some(cut) = &cut else { return 0.0 };
+        let (mut sum, mut nu) = (0.0, D::Vector::ZERO);
+        ctx.for_each_pair(i, |p| {
+            sum += ctx.volumes[p.j] * ctx.w_of(&p);
+            nu += p.grad_w * ctx.volumes[p.j];
+        });
+        match cut.reference(h * nu.length() / sum) {
+            Some(reference) => sum / reference - 1.0,
+            None => 0.0,
+        }
     });
 }
