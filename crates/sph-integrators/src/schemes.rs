@@ -259,8 +259,9 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
 /// The constraints every shift of particle `i` obeys (shifting and the start's packing): with
 /// `tangential`, only the part tangential to the surface, whose normal is that of the truncated
 /// support, `ν = Σ V_j ∇W_ij` (without the anti-clumping term, so the shift keeps its
-/// tangential part); then at most `cap` long, and at most half the distance to a wall
-/// ([`Walls::limit_shift`](crate::Walls::limit_shift)).
+/// tangential part); on a free-surface particle in contact with a wall, nothing into it
+/// ([`Walls::hold_contact_shift`](crate::Walls::hold_contact_shift)); then at most `cap` long,
+/// and at most half the distance to a wall ([`Walls::limit_shift`](crate::Walls::limit_shift)).
 pub(crate) fn constrain_shift<D: Dim>(
     e: &Engine<D>,
     x: &[D::Vector],
@@ -277,6 +278,11 @@ pub(crate) fn constrain_shift<D: Dim>(
         if n2 > 0.0 {
             dr -= nu * (dr.dot(nu) / n2);
         }
+    }
+    if e.dirichlet[i]
+        && let Some(w) = &e.walls
+    {
+        dr = w.hold_contact_shift(&engine_context!(e, x), i, dr);
     }
     let len = dr.length();
     if len > cap {

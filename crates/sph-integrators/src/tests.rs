@@ -287,6 +287,7 @@ sph_core::dim_tests! {
         // 0.3 Δx into contact with the lid (0.7 Δx from its first layer), A moving into it and
         // B away; C at the lattice distance (Δx from the layer) moving into it; D raised like
         // A but not a free-surface particle. Only A changes: its y velocity becomes the lid's.
+        // (The caller asks `hold_contact_shift` for free-surface particles only.)
         let dx = 0.1;
         let (mut x, first, top) = lid_lattice::<D>(dx);
         let (a, b, c, d) = (top[1], top[3], top[5], top[6]);
@@ -314,6 +315,17 @@ sph_core::dim_tests! {
             assert_eq!(u[i], before[i], "{}: particle {i}", D::NAME);
         }
         assert!([b, c, d].iter().all(|&i| u[i] == before[i]));
+        // A shift (no velocity carries it; the lid does not move during it) into the lid is
+        // dropped on A and kept on C (a lattice distance from the layer), on B when it points
+        // away; a shift along the lid is kept.
+        let into = D::Vector::from_fn(|c| [0.01, 0.02, 0.005][c]);
+        let away = D::Vector::from_fn(|c| [0.01, -0.02, 0.005][c]);
+        let along = D::Vector::from_fn(|c| if c == 1 { 0.0 } else { 0.01 });
+        let dropped = D::Vector::from_fn(|c| if c == 1 { 0.0 } else { into.get(c) });
+        assert_eq!(walls.hold_contact_shift(&ctx, a, into), dropped, "{}", D::NAME);
+        assert_eq!(walls.hold_contact_shift(&ctx, a, along), along, "{}", D::NAME);
+        assert_eq!(walls.hold_contact_shift(&ctx, b, away), away, "{}", D::NAME);
+        assert_eq!(walls.hold_contact_shift(&ctx, c, into), into, "{}", D::NAME);
     }
 
     fn wall_data_of_a_uniform_flow<D>() {

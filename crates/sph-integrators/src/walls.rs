@@ -647,6 +647,40 @@ impl<D: Dim> Walls<D> {
             .sum()
     }
 
+    /// The free-surface particles' wall condition for a shift (a displacement no velocity
+    /// carries: shifting, the density correction, the start's packing) of fluid particle `i`:
+    /// as [`Walls::hold_contacts`] for velocities, each component of `dr` that moves the
+    /// particle into a wall layer closer than the contact reach is dropped (walls do not move
+    /// during a shift). Without it a free-surface particle in contact, whose velocity into the
+    /// wall is held at the wall's, could still be shifted onto the wall's face, half its distance
+    /// at a time.
+    pub fn hold_contact_shift<K: Kernel<D>>(
+        &self,
+        ctx: &SphContext<'_, D, K>,
+        i: usize,
+        mut dr: D::Vector,
+    ) -> D::Vector {
+        let first = self.first;
+        let reach = CONTACT_REACH * ctx.volumes[i].powf(1.0 / D::DIM as f64);
+        let xi = ctx.positions[i];
+        for j in ctx.neighbors_of(i) {
+            if j < first {
+                continue;
+            }
+            let n = self.inward[j - first];
+            let r = ctx.pair(xi, j);
+            dr = D::Vector::from_fn(|a| {
+                let (s, d) = (n.get(a), dr.get(a));
+                if s != 0.0 && r.get(a).abs() < reach && d * s > 0.0 {
+                    0.0
+                } else {
+                    d
+                }
+            });
+        }
+        dr
+    }
+
     /// `out[k] = f(k, ũ_k)` for each wall particle, with `ũ` the Shepard average of the fluid
     /// velocities around it (`u_wall` where it has no fluid neighbour).
     fn map_shepard<K: Kernel<D>>(
