@@ -119,6 +119,52 @@ fn resume_with_a_kept_amg_hierarchy_is_bit_for_bit() {
 }
 
 #[test]
+fn resume_of_a_free_surface_flow_is_bit_for_bit() {
+    // A jittered tank under gravity with the flow scenes' defaults: besides the projection's
+    // solver, the density correction's second solve keeps an AMG hierarchy, which a checkpoint
+    // (every 7 steps, inside the hierarchy's 10-solve age) must forget as a resumed run (a new
+    // process) does; at 64 × 40 particles the hierarchy has levels to keep (at 32 × 20 this test
+    // passed with the correction's solver left unreset). Fixed step: step 14 is t = 0.028.
+    let dir = scratch("resume_flow");
+    let text_scene = "dim = 2\ndx = 0.0125\nkernel = \"wendland_c2\"\ndt = 2e-3\nt_end = 0.05\n\
+        schemes = [\"euler\", \"predictor_corrector\", \"dg\"]\n\
+        [time_step]\nauto = false\n\
+        [[fluid]]\nshape = \"box\"\nmin = [0.0, 0.0]\nmax = [0.8, 0.5]\nhydrostatic = true\njitter = 0.1\n\
+        [[wall]]\nmin = [0.0, 0.0]\nmax = [0.8, 0.8]\nopen = [\"+y\"]\n\
+        [free_surface]\n\
+        [effects]\ngravity = [0.0, -9.81, 0.0]\nshifting = { coefficient = 2.0 }\n";
+    let s = scene(&dir, "c", text_scene);
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let run = |out: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
+            "run",
+            s.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--checkpoint-every",
+            "7",
+        ];
+        args.extend_from_slice(extra);
+        let o = dgsph(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        o
+    };
+    run(&a, &[]);
+    run(&b, &["--t-end", "0.028"]);
+    let o = run(&b, &["--resume"]);
+    assert!(text(&o).contains("resuming from step 14"), "{}", text(&o));
+    for scheme in SCHEMES {
+        let ca = std::fs::read(a.join(format!("c_{scheme}.checkpoint"))).unwrap();
+        let cb = std::fs::read(b.join(format!("c_{scheme}.checkpoint"))).unwrap();
+        assert!(ca == cb, "{scheme}: the resumed run's final state differs");
+        let ra = rows_without_timing(&a.join(format!("c_{scheme}.csv")));
+        let rb = rows_without_timing(&b.join(format!("c_{scheme}.csv")));
+        assert_eq!(ra, rb, "{scheme}: records differ");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn kill_9_then_resume_equals_the_uninterrupted_run() {
     let dir = scratch("kill");
     // Long enough to be killed mid-run: 20² cavity, 3000 steps of DG.

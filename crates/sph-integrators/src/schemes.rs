@@ -270,19 +270,21 @@ pub(crate) fn constrain_shift<D: Dim>(
     tangential: bool,
     cap: f64,
 ) -> D::Vector {
-    if tangential {
+    // The walls' contact rule acts on free-surface particles only.
+    let contact = e.walls.as_ref().filter(|_| e.dirichlet[i]);
+    if tangential || contact.is_some() {
         let ctx = engine_context!(e, x);
-        let mut nu = D::Vector::ZERO;
-        ctx.for_each_pair(i, |p| nu += p.grad_w * ctx.volumes[p.j]);
-        let n2 = nu.length_squared();
-        if n2 > 0.0 {
-            dr -= nu * (dr.dot(nu) / n2);
+        if tangential {
+            let mut nu = D::Vector::ZERO;
+            ctx.for_each_pair(i, |p| nu += p.grad_w * ctx.volumes[p.j]);
+            let n2 = nu.length_squared();
+            if n2 > 0.0 {
+                dr -= nu * (dr.dot(nu) / n2);
+            }
         }
-    }
-    if e.dirichlet[i]
-        && let Some(w) = &e.walls
-    {
-        dr = w.hold_contact_shift(&engine_context!(e, x), i, dr);
+        if let Some(w) = contact {
+            dr = w.hold_contact_shift(&ctx, i, dr);
+        }
     }
     let len = dr.length();
     if len > cap {

@@ -442,8 +442,8 @@ impl<D: Dim> Simulation<D> {
 
     /// Whether the next step's solves start as a restored simulation's would: neither linear
     /// solver (the projection's, the density correction's) keeps anything from earlier steps
-    /// that it would use (an AMG hierarchy is kept for up to 10 solves, then rebuilt). A checkpoint taken where this holds resumes to the same
-    /// bits as the run that goes on.
+    /// that it would use (an AMG hierarchy is kept for up to 10 solves, then rebuilt). A
+    /// checkpoint taken where this holds resumes to the same bits as the run that goes on.
     pub fn solver_keeps_nothing(&self) -> bool {
         self.renumbers_next()
             || (self.engine.solver.next_solve_is_fresh()

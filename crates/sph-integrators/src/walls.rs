@@ -624,24 +624,8 @@ impl<D: Dim> Walls<D> {
                 if !free {
                     return 0;
                 }
-                let reach = CONTACT_REACH * ctx.volumes[i].powf(1.0 / D::DIM as f64);
-                let xi = ctx.positions[i];
                 let before = *u;
-                for j in ctx.neighbors_of(i) {
-                    if j < first {
-                        continue;
-                    }
-                    let (n, vw) = (self.inward[j - first], self.velocity[j - first]);
-                    let r = ctx.pair(xi, j);
-                    *u = D::Vector::from_fn(|a| {
-                        let (s, ua) = (n.get(a), u.get(a));
-                        if s != 0.0 && r.get(a).abs() < reach && (ua - vw.get(a)) * s > 0.0 {
-                            vw.get(a)
-                        } else {
-                            ua
-                        }
-                    });
-                }
+                *u = self.hold_contact(ctx, i, *u, |j| self.velocity[j]);
                 usize::from(*u != before)
             })
             .sum()
@@ -658,7 +642,21 @@ impl<D: Dim> Walls<D> {
         &self,
         ctx: &SphContext<'_, D, K>,
         i: usize,
-        mut dr: D::Vector,
+        dr: D::Vector,
+    ) -> D::Vector {
+        self.hold_contact(ctx, i, dr, |_| D::Vector::ZERO)
+    }
+
+    /// The contact rule of fluid particle `i` for a vector `v` (its velocity, or a shift): each
+    /// component moving it, relative to `wall(k)` of wall particle `k` (numbered from the first
+    /// wall particle), into a wall layer within the contact reach along that particle's normal
+    /// axis becomes that wall value's.
+    fn hold_contact<K: Kernel<D>>(
+        &self,
+        ctx: &SphContext<'_, D, K>,
+        i: usize,
+        mut v: D::Vector,
+        wall: impl Fn(usize) -> D::Vector,
     ) -> D::Vector {
         let first = self.first;
         let reach = CONTACT_REACH * ctx.volumes[i].powf(1.0 / D::DIM as f64);
@@ -667,18 +665,18 @@ impl<D: Dim> Walls<D> {
             if j < first {
                 continue;
             }
-            let n = self.inward[j - first];
+            let (n, vw) = (self.inward[j - first], wall(j - first));
             let r = ctx.pair(xi, j);
-            dr = D::Vector::from_fn(|a| {
-                let (s, d) = (n.get(a), dr.get(a));
-                if s != 0.0 && r.get(a).abs() < reach && d * s > 0.0 {
-                    0.0
+            v = D::Vector::from_fn(|a| {
+                let (s, va) = (n.get(a), v.get(a));
+                if s != 0.0 && r.get(a).abs() < reach && (va - vw.get(a)) * s > 0.0 {
+                    vw.get(a)
                 } else {
-                    d
+                    va
                 }
             });
         }
-        dr
+        v
     }
 
     /// `out[k] = f(k, ũ_k)` for each wall particle, with `ũ` the Shepard average of the fluid
