@@ -942,6 +942,13 @@ fn cases() -> Vec<Case> {
             "settle_steps",
         ),
         (
+            "settle damping out of range",
+            TANK,
+            "[free_surface]",
+            "[start]\nsettle_steps = 10\nsettle_damping = 1.5\n[free_surface]",
+            "start.settle_damping",
+        ),
+        (
             "unknown shift correction",
             TANK,
             "gravity = [0.0, -9.81, 0.0]",

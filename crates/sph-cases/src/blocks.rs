@@ -248,11 +248,16 @@ pub enum ChannelKind {
 #[serde(deny_unknown_fields)]
 pub struct StartSpec {
     /// Settle the initial state with this many steps of the scheme before `t = 0`, each ending
-    /// with the fluid's velocities set to zero (dynamic relaxation), and start from rest in the
-    /// settled positions with the settled pressure. A step moves a particle by `Δt²` times its
-    /// acceleration, so settling does not undo a jitter (`relax_iterations` does). Nothing is
+    /// with the fraction `settle_damping` of the fluid's velocity removed (dynamic relaxation),
+    /// and start from rest in the settled positions with the settled pressure. Nothing is
     /// recorded while settling. Default 0 (none).
     pub settle_steps: Option<usize>,
+    /// The fraction `c` of the fluid's velocity removed at the end of each settling step, in
+    /// `(0, 1]`: the settling is the scheme's dynamics damped at the rate `c/Δt`. Default 1: each
+    /// step ends at rest, and moves a particle by only `Δt²` times its acceleration (a jitter
+    /// is not undone: `relax_iterations` packs it). With `c` near `2ωΔt` the surface waves of
+    /// frequency `ω` (a jittered surface's: `ω = √(π g/Δx)`) are damped critically.
+    pub settle_damping: Option<f64>,
     /// Pack the fluid particles with this many fixed-coefficient shifting iterations before
     /// anything else (positions only; `sph_integrators::Simulation::relax`): a disordered start
     /// (`jitter`) loses the disorder that makes the approximate projection amplify. Default 0.

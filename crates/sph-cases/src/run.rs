@@ -385,8 +385,9 @@ fn run_state(tally: &Tally, case_state: Vec<u8>) -> Vec<u8> {
 
 /// The scene's `[start] relax_iterations` (packing, [`Simulation::relax`]), then its
 /// `[start] settle_steps`: that many steps of the scheme at the scene's `dt`, each
-/// followed by setting the fluid's velocities to zero, then the clock reset to `t = 0`, step 0.
-/// The particles keep their settled positions and pressures. A failed settling step is an
+/// followed by removing the fraction `settle_damping` (default 1) of the fluid's velocity, then
+/// the fluid set at rest and the clock reset to `t = 0`, step 0. The particles keep their
+/// settled positions and pressures. A failed settling step is an
 /// error of the run's setup (`CaseError::Settle`).
 fn settle<D: Dim>(
     scene: &Scene,
@@ -404,11 +405,15 @@ fn settle<D: Dim>(
         return Ok(());
     }
     let nf = sim.fluid_len();
+    let keep = 1.0 - scene.start.settle_damping.unwrap_or(1.0);
     for _ in 0..steps {
         case.advance(sim, integrator, scene.dt)
             .map_err(|e| CaseError::Settle(e.to_string()))?;
-        sim.particles.velocities[..nf].fill(D::Vector::ZERO);
+        for u in &mut sim.particles.velocities[..nf] {
+            *u *= keep;
+        }
     }
+    sim.particles.velocities[..nf].fill(D::Vector::ZERO);
     sim.t = 0.0;
     sim.step = 0;
     Ok(())

@@ -1041,6 +1041,14 @@ impl Validator<'_> {
                 );
             }
         }
+        if let Some(c) = s.start.settle_damping
+            && !(c.is_finite() && c > 0.0 && c <= 1.0)
+        {
+            return self.bad(
+                "start.settle_damping",
+                format!("must be in (0, 1], got {c}"),
+            );
+        }
         if let Some(a) = s.pressure.density_relaxation
             && !(0.0..=1.0).contains(&a)
         {

@@ -220,6 +220,46 @@ fn settling_moves_the_start_and_keeps_the_clock() {
     );
 }
 
+/// `[start] settle_damping = c`: each settling step ends with the fraction `c` of the fluid's
+/// velocity removed. A drop with nothing under it falls freely while settling (its pressure
+/// stays near zero), so its centroid drops by the damped free fall's distance: with the velocity
+/// a step moves by `v_n = u_{n−1} + g Δt` and `u_n = (1 − c) v_n`, `v_n = (g Δt / c)(1 − (1 −
+/// c)^n)` and `N` steps fall `Σ v_n Δt = (g Δt² / c)(N − (1 − c)(1 − (1 − c)^N) / c)`; `c = 1`
+/// (the default) is `N g Δt²`. Euler's step, 2D and 3D.
+#[test]
+fn a_damped_settling_falls_as_damped_free_fall() {
+    for dim in [2, 3] {
+        let text = |steps: usize, damping: f64| {
+            let dx = if dim == 2 { 0.04 } else { 0.05 };
+            let extra = format!("[start]\nsettle_steps = {steps}\nsettle_damping = {damping}\n");
+            falling_drop(dim, dx, &extra)
+                .replace("t_end = 0.5", "t_end = 0.002")
+                .replace(
+                    "[\"euler\", \"predictor_corrector\", \"dg\"]",
+                    "[\"euler\"]",
+                )
+        };
+        let centroid = |steps: usize, damping: f64| {
+            let scene = parse_scene("settled drop", &text(steps, damping))
+                .unwrap_or_else(|e| panic!("{dim}D: {e}"));
+            let (out, sink) = run(&scene, SchemeKind::Euler);
+            assert!(out.failure.is_none(), "{dim}D: {:?}", out.failure);
+            sink.column("centroid_y")[0]
+        };
+        let y0 = centroid(0, 1.0);
+        let (g, dt, n) = (9.81, 1e-3, 60usize);
+        for c in [1.0, 0.1] {
+            let fell = y0 - centroid(n, c);
+            let keep: f64 = 1.0 - c;
+            let exact = g * dt * dt / c * (n as f64 - keep * (1.0 - keep.powi(n as i32)) / c);
+            assert!(
+                (fell / exact - 1.0).abs() < 1e-6,
+                "{dim}D, c = {c}: fell {fell}, damped free fall {exact}"
+            );
+        }
+    }
+}
+
 /// A drop falling into a pool: the pool is the hydrostatic block, the drop the other; they
 /// first touch (a drop particle with a pool particle in its support) after the drop has fallen
 /// the gap less about a support radius, `t = √(2 (gap − r) / g)`, and the pool's largest speed
