@@ -6,10 +6,13 @@
 //! not by one draw each.
 //!
 //! Draw `k = 0, 1, …, N − 1` runs the scene with the time step `Δt (1 − k ε)` (default `ε = 1e-14`,
-//! a change far below any discretisation error). Every draw ends at the scene's end time: when its
-//! full steps fall short of it by more than `1e-9 Δt` (from about `k ε n > 1e-9`, `n` steps: k ≥ 7
-//! for the 16 000 steps of the Re 400 cavity) the run adds a last step of that length, as any run
-//! whose end time is not a whole number of steps does. Every scheme of the scene is run in every
+//! a change far below any discretisation error), taken every step. Every draw ends at the scene's
+//! end time: when its full steps fall short of it by more than `1e-9 Δt` (from about `k ε n >
+//! 1e-9`, `n` steps: k ≥ 7 for the 16 000 steps of the Re 400 cavity) the run adds a last step of
+//! that length, as any run whose end time is not a whole number of steps does. With `--perturb
+//! gravity` draw `k` runs with the gravity vector `g (1 − k ε)` instead and the scene's own time
+//! step, automatic or not (a scene under gravity whose step is chosen from the state: the
+//! dam breaks, the drops). Every scheme of the scene is run in every
 //! draw, in memory (no frames, no records on disk). Writes `<tag>_ensemble.csv` (one row per draw,
 //! scheme and result: `scheme,draw,dt,status,result,value`) and `<tag>_ensemble.md` (per scheme and
 //! result: draws, mean, standard deviation, standard error of the mean, minimum, maximum) into
@@ -17,7 +20,7 @@
 //! fails is listed with its error and left out of the statistics; the exit code is then 3
 //! (`dgsph`'s "a run failed"), otherwise 0.
 
-use crate::flags::EnsembleArgs;
+use crate::flags::{EnsembleArgs, Perturbed};
 use anyhow::Context;
 use dgsph::session::{self, AppError, exit};
 use sph_cases::reference::References;
@@ -84,9 +87,26 @@ pub fn stats(values: &[f64]) -> Stats {
     }
 }
 
-/// The time step of draw `k`.
+/// The time step (or a gravity component) of draw `k`: `x (1 − k ε)`.
 pub fn draw_dt(dt: f64, k: usize, epsilon: f64) -> f64 {
     dt * (1.0 - k as f64 * epsilon)
+}
+
+/// What the draws change, as the reports name it: `Δt = 0.002` or `g = [0.0, -9.81, 0.0]
+/// (Δt as the scene's)`.
+fn drawn(perturb: Perturbed, scene: &sph_cases::Scene) -> String {
+    match perturb {
+        Perturbed::Dt => format!("Δt = {:?}", scene.dt),
+        Perturbed::Gravity => format!(
+            "g = {:?} (Δt as the scene's, {})",
+            scene.effects.gravity.unwrap_or_default(),
+            if scene.auto_time_step().is_some() {
+                format!("automatic, at most {:?}", scene.dt)
+            } else {
+                format!("fixed {:?}", scene.dt)
+            }
+        ),
+    }
 }
 
 /// Runs the ensemble; returns the exit code.
@@ -97,26 +117,41 @@ pub fn run(args: &EnsembleArgs) -> Result<u8, AppError> {
             "--perturbation must be a positive number, got {eps}"
         )));
     }
+    let what = match args.perturb {
+        Perturbed::Dt => "the time step",
+        Perturbed::Gravity => "gravity",
+    };
     let spread = (args.draws - 1) as f64 * eps;
     if spread > MAX_SPREAD {
         return Err(AppError::Input(anyhow::anyhow!(
-            "--draws {} × --perturbation {eps} changes the time step by up to {spread:e} \
+            "--draws {} × --perturbation {eps} changes {what} by up to {spread:e} \
              (more than {MAX_SPREAD:e}): the draws would differ by more than round-off",
             args.draws
         )));
     }
     let scene = session::load_scene(&args.scene)?;
     let scene = args.overrides.apply(args.preset.apply(&scene))?;
+    if args.perturb == Perturbed::Gravity
+        && scene
+            .effects
+            .gravity
+            .is_none_or(|g| g.iter().all(|c| *c == 0.0))
+    {
+        return Err(AppError::Input(anyhow::anyhow!(
+            "--perturb gravity: {} has no gravity to perturb ([effects] gravity)",
+            args.scene.display()
+        )));
+    }
     let tag = args
         .tag
         .clone()
         .unwrap_or_else(|| session::scene_stem(&args.scene));
     let refs = References::embedded();
     dgsph::say!(
-        "{}: {} draws, Δt = {:?} (1 − k·{eps:e}), schemes {}",
+        "{}: {} draws, {} (1 − k·{eps:e}), schemes {}",
         args.scene.display(),
         args.draws,
-        scene.dt,
+        drawn(args.perturb, &scene),
         scene
             .schemes
             .iter()
@@ -127,9 +162,17 @@ pub fn run(args: &EnsembleArgs) -> Result<u8, AppError> {
     let mut draws = Vec::new();
     for k in 0..args.draws as usize {
         let mut s = scene.clone();
-        s.dt = draw_dt(scene.dt, k, eps);
-        // The drawn step is taken every step (an automatic step would only be bounded by it).
-        s.time_step.auto = Some(false);
+        match args.perturb {
+            Perturbed::Dt => {
+                s.dt = draw_dt(scene.dt, k, eps);
+                // The drawn step is taken every step (an automatic step would only be bounded
+                // by it).
+                s.time_step.auto = Some(false);
+            }
+            Perturbed::Gravity => {
+                s.effects.gravity = scene.effects.gravity.map(|g| g.map(|c| draw_dt(c, k, eps)));
+            }
+        }
         for &scheme in &scene.schemes {
             let mut sink = MemorySink::default();
             let r = registry::run_scheme(&s, scheme, refs, RunControl::default(), &mut sink)
@@ -207,13 +250,13 @@ fn tables(
         }
     }
     let mut md = format!(
-        "# Round-off ensemble: {tag}\n\n`cargo xtask ensemble {}` — {} draws, Δt = {:?} \
+        "# Round-off ensemble: {tag}\n\n`cargo xtask ensemble {}` — {} draws, {} \
          (1 − k ε), ε = {:e}, k = 0 … {}. Statistics over the completed draws; SE is the \
          standard error of the mean (SD/√n).\n\nThe scene as run ({} preset, command-line \
          overrides applied): {}D, dx = {:?}, t_end = {:?}, kernel {}, solver {}, tolerance {}.\n\n",
         args.scene.display(),
         args.draws,
-        scene.dt,
+        drawn(args.perturb, scene),
         args.perturbation,
         args.draws - 1,
         args.preset.name(),

@@ -71,17 +71,31 @@ pub struct CompareArgs {
     pub out: PathBuf,
 }
 
+/// What the draws of `cargo xtask ensemble` change.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Perturbed {
+    /// The time step: draw k runs with Δt (1 − k ε), every step.
+    Dt,
+    /// The gravity vector: draw k runs with g (1 − k ε).
+    Gravity,
+}
+
 /// Flags of `cargo xtask ensemble`.
 #[derive(Debug, clap::Args)]
 pub struct EnsembleArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
-    /// Number of draws (draw k runs with Δt (1 − k ε)).
+    /// Number of draws (draw k runs with Δt (1 − k ε), or g (1 − k ε)).
     #[arg(long, default_value_t = 9, value_parser = clap::value_parser!(u32).range(2..=1000))]
     pub draws: u32,
-    /// The relative change ε of the time step between draws.
+    /// The relative change ε between draws.
     #[arg(long, default_value_t = 1e-14)]
     pub perturbation: f64,
+    /// What the draws change: `dt` (the time step, taken every step: an automatic step is
+    /// switched off) or `gravity` (the scene's gravity vector; its time step as written, an
+    /// automatic one included).
+    #[arg(long, value_enum, default_value = "dt")]
+    pub perturb: Perturbed,
     /// `full` (the scene as written) or `quick` (its `[quick]` overrides).
     #[arg(long, value_enum, default_value = "full")]
     pub preset: Preset,

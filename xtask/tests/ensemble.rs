@@ -269,3 +269,117 @@ fn compare_gives_the_difference_of_means_in_standard_errors() {
     }
     assert!(!dir.join("never.md").exists());
 }
+
+/// `--perturb gravity`: draw k runs with the gravity vector g (1 − k ε) and the scene's own
+/// automatic step — each draw is `xtask run` of the scene with that gravity written into it, bit
+/// for bit, and its steps were chosen from the state (its smallest step below the scene's bound).
+/// The quick drop on a wall with its step bound raised to 0.01 (the advective limit binds once
+/// the drop falls faster than 0.5 m/s), to t = 0.15, Euler.
+#[test]
+fn gravity_draws_keep_the_automatic_step() {
+    let dir = scratch("ensemble-gravity");
+    let out = dir.join("ens");
+    let drop = Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/hard/drop_on_wall.toml");
+    let text = std::fs::read_to_string(&drop).unwrap();
+    let flags = [
+        "--preset",
+        "quick",
+        "--dt",
+        "0.01",
+        "--t-end",
+        "0.15",
+        "--schemes",
+        "euler",
+    ];
+    let mut args = vec![
+        "ensemble",
+        drop.to_str().unwrap(),
+        "--draws",
+        "3",
+        "--perturbation",
+        "1e-13",
+        "--perturb",
+        "gravity",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(flags);
+    let (code, text_out, _) = xtask(&args);
+    assert_eq!(code, Some(0), "{text_out}");
+    let csv = std::fs::read_to_string(out.join("drop_on_wall_ensemble.csv")).unwrap();
+    let mut rows: BTreeMap<(usize, String), f64> = BTreeMap::new();
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!((f[0], f[2], f[3]), ("euler", "0.01", "completed"), "{line}");
+        rows.insert(
+            (f[1].parse().unwrap(), f[4].to_string()),
+            f[5].parse().unwrap(),
+        );
+    }
+    let md = std::fs::read_to_string(out.join("drop_on_wall_ensemble.md")).unwrap();
+    assert!(
+        md.contains("g = [0.0, -9.81, 0.0] (Δt as the scene's, automatic, at most 0.01)"),
+        "{md}"
+    );
+    for k in 0..3usize {
+        let dt_min = rows[&(k, "dt_min".to_string())];
+        assert!(
+            dt_min > 0.0 && dt_min < 0.01,
+            "draw {k}: smallest step {dt_min}"
+        );
+        // The same scene with the drawn gravity written into it, run by `xtask run`.
+        let g = -9.81 * (1.0 - k as f64 * 1e-13);
+        let copy = dir.join(format!("drop_on_wall_g{k}.toml"));
+        std::fs::write(
+            &copy,
+            text.replace(
+                "gravity = [0.0, -9.81, 0.0]",
+                &format!("gravity = [0.0, {g:?}, 0.0]"),
+            ),
+        )
+        .unwrap();
+        let run_out = dir.join(format!("run{k}"));
+        let mut run_args = vec![
+            "run",
+            copy.to_str().unwrap(),
+            "--progress-every",
+            "0",
+            "--out",
+            run_out.to_str().unwrap(),
+        ];
+        run_args.extend(flags);
+        let (code, text_run, _) = xtask(&run_args);
+        assert_eq!(code, Some(0), "{text_run}");
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(run_out.join(format!("drop_on_wall_g{k}_euler.run.json")))
+                .unwrap(),
+        )
+        .unwrap();
+        let results = json["results"].as_object().unwrap();
+        let mut compared = 0;
+        for (key, v) in results {
+            if key.contains("seconds") {
+                continue;
+            }
+            let Some(v) = v.as_f64() else { continue };
+            let drawn = rows[&(k, key.clone())];
+            assert!(
+                drawn == v || (drawn.is_nan() && v.is_nan()),
+                "draw {k}, {key}: {drawn} against {v}"
+            );
+            compared += 1;
+        }
+        assert!(compared >= 10, "only {compared} results compared");
+    }
+    // A scene without gravity has nothing to perturb: an input error naming the flag.
+    let (code, text_bad, _) = xtask(&[
+        "ensemble",
+        scene().to_str().unwrap(),
+        "--perturb",
+        "gravity",
+        "--out",
+        "/nonexistent/never-written",
+    ]);
+    assert_eq!(code, Some(2), "{text_bad}");
+    assert!(text_bad.contains("--perturb gravity"), "{text_bad}");
+}
