@@ -188,9 +188,13 @@ pub fn run(args: &EnsembleArgs) -> Result<u8, AppError> {
                 .map(|(key, v)| format!("{key} {v:.6e}"))
                 .collect();
             dgsph::say!(
-                "  {} k = {k}: Δt = {:?}, t = {:.4}, {:.1} s, {}{}",
+                "  {} k = {k}: {}, t = {:.4}, {:.1} s, {}{}",
                 scheme.name(),
-                s.dt,
+                match args.perturb {
+                    Perturbed::Dt => format!("Δt = {:?}", s.dt),
+                    Perturbed::Gravity =>
+                        format!("g = {:?}", s.effects.gravity.unwrap_or_default()),
+                },
                 r.t,
                 r.wall_s,
                 failure.as_deref().unwrap_or("completed"),
