@@ -30,6 +30,29 @@ fn read_csv(path: &Path) -> BTreeMap<(usize, String), (f64, f64)> {
     rows
 }
 
+/// A completed run's `run.json` results (timings aside) are draw `k`'s values (`drawn(key)`),
+/// bit for bit (NaN for NaN), at least ten of them.
+fn assert_results_are_the_draws(run_json: &Path, k: usize, drawn: impl Fn(&str) -> f64) {
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run_json).unwrap()).unwrap();
+    assert_eq!(json["status"], "completed", "{json}");
+    let results = json["results"].as_object().unwrap();
+    let mut compared = 0;
+    for (key, v) in results {
+        if key.contains("seconds") {
+            continue;
+        }
+        let Some(v) = v.as_f64() else { continue };
+        let d = drawn(key);
+        assert!(
+            d == v || (d.is_nan() && v.is_nan()),
+            "draw {k}, {key}: {d} against {v}"
+        );
+        compared += 1;
+    }
+    assert!(compared >= 10, "only {compared} results compared");
+}
+
 #[test]
 fn draws_are_the_runs_at_their_time_steps_and_the_table_their_statistics() {
     let dir = scratch("ensemble");
@@ -78,22 +101,9 @@ fn draws_are_the_runs_at_their_time_steps_and_the_table_their_statistics() {
         // Exit 1: the scene's Ghia checks fail at t = 0.3, far from the steady state (the
         // ensemble reports values, not checks).
         assert_eq!(code, Some(1), "{text}");
-        let json: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(run_out.join("cavity_re100_dg.run.json")).unwrap(),
-        )
-        .unwrap();
-        assert_eq!(json["status"], "completed", "{json}");
-        let results = json["results"].as_object().unwrap();
-        let mut compared = 0;
-        for (key, v) in results {
-            if key.contains("seconds") {
-                continue;
-            }
-            let Some(v) = v.as_f64() else { continue };
-            assert_eq!(rows[&(k, key.clone())].1, v, "draw {k}, {key}");
-            compared += 1;
-        }
-        assert!(compared >= 10, "only {compared} results compared");
+        assert_results_are_the_draws(&run_out.join("cavity_re100_dg.run.json"), k, |key| {
+            rows[&(k, key.to_string())].1
+        });
     }
     // The draws differ (round-off grows over 30 steps into the last digits of the deviations).
     let v: Vec<f64> = (0..3).map(|k| rows[&(k, "ghia_v_rms".into())].1).collect();
@@ -350,26 +360,11 @@ fn gravity_draws_keep_the_automatic_step() {
         run_args.extend(flags);
         let (code, text_run, _) = xtask(&run_args);
         assert_eq!(code, Some(0), "{text_run}");
-        let json: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(run_out.join(format!("drop_on_wall_g{k}_euler.run.json")))
-                .unwrap(),
-        )
-        .unwrap();
-        let results = json["results"].as_object().unwrap();
-        let mut compared = 0;
-        for (key, v) in results {
-            if key.contains("seconds") {
-                continue;
-            }
-            let Some(v) = v.as_f64() else { continue };
-            let drawn = rows[&(k, key.clone())];
-            assert!(
-                drawn == v || (drawn.is_nan() && v.is_nan()),
-                "draw {k}, {key}: {drawn} against {v}"
-            );
-            compared += 1;
-        }
-        assert!(compared >= 10, "only {compared} results compared");
+        assert_results_are_the_draws(
+            &run_out.join(format!("drop_on_wall_g{k}_euler.run.json")),
+            k,
+            |key| rows[&(k, key.to_string())],
+        );
     }
     // A scene without gravity has nothing to perturb: an input error naming the flag.
     let (code, text_bad, _) = xtask(&[

@@ -74,20 +74,14 @@ fn resume_bit_for_bit(name: &str, scene_text: &str) {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-#[test]
-fn resume_with_a_kept_amg_hierarchy_is_bit_for_bit() {
-    // AMG keeps its hierarchy for up to 10 solves; checkpoints every 7 steps fall inside that
-    // age, so the uninterrupted run must start its solver afresh after each checkpoint as the
-    // resumed run (a new process) does. 20² cavity: two AMG levels.
-    let dir = scratch("resume_amg");
-    let text_scene = cavity(0.25)
-        .replace("dx = 0.1", "dx = 0.05")
-        .replace("dt = 0.01", "dt = 0.0125")
-        .replace(
-            "solver_tolerance = 1e-8",
-            "solver_tolerance = 1e-8\nsolver = \"bicgstab_amg\"",
-        );
-    let s = scene(&dir, "c", &text_scene);
+/// `dgsph run SCENE` with a checkpoint every 7 steps, once uninterrupted (`dir/a`) and once
+/// stopped at `t_end_14` (step 14) and resumed in a new process (`dir/b`): every scheme's final
+/// checkpoint and records (timings aside) are the same bits. Removes `dir`.
+fn interrupted_at_step_14_resumes_bit_for_bit(
+    dir: &std::path::Path,
+    s: &std::path::Path,
+    t_end_14: &str,
+) {
     let (a, b) = (dir.join("a"), dir.join("b"));
     let run = |out: &std::path::Path, extra: &[&str]| {
         let mut args = vec![
@@ -104,7 +98,7 @@ fn resume_with_a_kept_amg_hierarchy_is_bit_for_bit() {
         o
     };
     run(&a, &[]);
-    run(&b, &["--t-end", "0.175"]); // step 14
+    run(&b, &["--t-end", t_end_14]);
     let o = run(&b, &["--resume"]);
     assert!(text(&o).contains("resuming from step 14"), "{}", text(&o));
     for scheme in SCHEMES {
@@ -115,7 +109,24 @@ fn resume_with_a_kept_amg_hierarchy_is_bit_for_bit() {
         let rb = rows_without_timing(&b.join(format!("c_{scheme}.csv")));
         assert_eq!(ra, rb, "{scheme}: records differ");
     }
-    std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn resume_with_a_kept_amg_hierarchy_is_bit_for_bit() {
+    // AMG keeps its hierarchy for up to 10 solves; checkpoints every 7 steps fall inside that
+    // age, so the uninterrupted run must start its solver afresh after each checkpoint as the
+    // resumed run (a new process) does. 20² cavity: two AMG levels.
+    let dir = scratch("resume_amg");
+    let text_scene = cavity(0.25)
+        .replace("dx = 0.1", "dx = 0.05")
+        .replace("dt = 0.01", "dt = 0.0125")
+        .replace(
+            "solver_tolerance = 1e-8",
+            "solver_tolerance = 1e-8\nsolver = \"bicgstab_amg\"",
+        );
+    let s = scene(&dir, "c", &text_scene);
+    interrupted_at_step_14_resumes_bit_for_bit(&dir, &s, "0.175");
 }
 
 #[test]
@@ -134,34 +145,7 @@ fn resume_of_a_free_surface_flow_is_bit_for_bit() {
         [free_surface]\n\
         [effects]\ngravity = [0.0, -9.81, 0.0]\nshifting = { coefficient = 2.0 }\n";
     let s = scene(&dir, "c", text_scene);
-    let (a, b) = (dir.join("a"), dir.join("b"));
-    let run = |out: &std::path::Path, extra: &[&str]| {
-        let mut args = vec![
-            "run",
-            s.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--checkpoint-every",
-            "7",
-        ];
-        args.extend_from_slice(extra);
-        let o = dgsph(&args);
-        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-        o
-    };
-    run(&a, &[]);
-    run(&b, &["--t-end", "0.028"]);
-    let o = run(&b, &["--resume"]);
-    assert!(text(&o).contains("resuming from step 14"), "{}", text(&o));
-    for scheme in SCHEMES {
-        let ca = std::fs::read(a.join(format!("c_{scheme}.checkpoint"))).unwrap();
-        let cb = std::fs::read(b.join(format!("c_{scheme}.checkpoint"))).unwrap();
-        assert!(ca == cb, "{scheme}: the resumed run's final state differs");
-        let ra = rows_without_timing(&a.join(format!("c_{scheme}.csv")));
-        let rb = rows_without_timing(&b.join(format!("c_{scheme}.csv")));
-        assert_eq!(ra, rb, "{scheme}: records differ");
-    }
-    std::fs::remove_dir_all(&dir).ok();
+    interrupted_at_step_14_resumes_bit_for_bit(&dir, &s, "0.028");
 }
 
 #[test]
