@@ -367,6 +367,11 @@ pub struct FreeSurfaceSpec {
     /// Default: on for `flow` and `dam_break` scenes with the symmetric gradient and its level
     /// term (their defaults), off otherwise.
     pub extrapolate: Option<bool>,
+    /// Complete the pressure rows of the particles in the surface's band (a free-surface
+    /// particle in their support, not flagged themselves) with the neighbours a lattice would
+    /// have beyond a flat surface at their depth, read as air at `p = 0`, instead of as no
+    /// flux into the air. Default: on where the surface rows are Robin rows (`extrapolate`).
+    pub complete_band: Option<bool>,
 }
 
 /// The pressure-gradient form of the velocity correction.

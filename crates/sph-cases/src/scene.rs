@@ -413,6 +413,7 @@ impl Scene {
                 div_r_threshold: Some(FreeSurface::default_for(case.dim()).div_r_threshold),
                 scan: None,
                 extrapolate: None,
+                complete_band: None,
             }),
             pressure: PressureSpec::default(),
             solver: SolverKind::default(),
@@ -514,16 +515,18 @@ impl Scene {
         // Flow scenes put `p = 0` half a spacing outside the surface particles (Robin rows) where
         // their gradient allows it (docs/physics.md, "Where p = 0 is put").
         let robin_default = flow && symmetric_with_level_term(&config);
-        config.free_surface = self.free_surface.map(|f| FreeSurface {
-            div_r_threshold: f
-                .div_r_threshold
-                .unwrap_or(FreeSurface::default_for(self.dim).div_r_threshold),
-            scan: f.scan.unwrap_or(flow),
-            zero_pressure_depth: if f.extrapolate.unwrap_or(robin_default) {
-                0.5 * self.dx
-            } else {
-                0.0
-            },
+        // The band's rows are completed where the surface rows are Robin rows, by default
+        // (docs/physics.md, "Completing the surface band's rows").
+        config.free_surface = self.free_surface.map(|f| {
+            let robin = f.extrapolate.unwrap_or(robin_default);
+            FreeSurface {
+                div_r_threshold: f
+                    .div_r_threshold
+                    .unwrap_or(FreeSurface::default_for(self.dim).div_r_threshold),
+                scan: f.scan.unwrap_or(flow),
+                zero_pressure_depth: if robin { 0.5 * self.dx } else { 0.0 },
+                complete_band: f.complete_band.unwrap_or(robin),
+            }
         });
         // Flow scenes relax their packing by displacements (docs/physics.md, "Density
         // relaxation"); the paper's cases keep the paper's projection.

@@ -25,6 +25,12 @@ pub struct FreeSurface {
     /// a lattice's fluid ends). Default 0.
     #[serde(default)]
     pub zero_pressure_depth: f64,
+    /// Complete the pressure rows of the unflagged particles in the surface's band (a
+    /// free-surface particle in their support) with the neighbours a lattice would have beyond
+    /// a flat surface at their depth, read as `p = 0` (`sph_pressure::complete_cut_rows`),
+    /// instead of as a zero flux into the air. Default `false`.
+    #[serde(default)]
+    pub complete_band: bool,
 }
 
 impl FreeSurface {
@@ -34,6 +40,7 @@ impl FreeSurface {
             div_r_threshold: 0.75 * dim as f64,
             scan: false,
             zero_pressure_depth: 0.0,
+            complete_band: false,
         }
     }
 }

@@ -13,13 +13,14 @@ use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
 use sph_neighbors::NeighborSearch;
 use sph_operators::{
-    SphContext, correction_matrices, deformation_gradient, divergence, free_surface_indicator,
-    free_surface_scan, grad_factors, grad_factors_and_values, grad_factors_from_squared_distances,
-    gradient, invariants, kernel_sum_excess_near_surface, velocity_gradient,
+    CutLattice, SphContext, correction_matrices, deformation_gradient, divergence,
+    free_surface_indicator, free_surface_scan, grad_factors, grad_factors_and_values,
+    grad_factors_from_squared_distances, gradient, invariants, kernel_sum_excess_near_surface,
+    velocity_gradient,
 };
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, add_level_term, assemble_dg, assemble_ppe,
-    assemble_surface_rows, assemble_wall_rows, fold_ghost_columns,
+    assemble_surface_rows, assemble_wall_rows, complete_cut_rows, fold_ghost_columns,
 };
 use std::time::Instant;
 
@@ -271,6 +272,20 @@ pub(crate) fn project<D: Dim>(
     }
     // No Dirichlet row: a closed domain, pressure defined up to a constant → mean-zero gauge.
     let closed = !e.dirichlet.iter().any(|d| *d);
+    if e.config.free_surface.is_some_and(|f| f.complete_band) && !closed {
+        let clock = Instant::now();
+        mark_surface_band(&ctx, &e.dirichlet, &mut e.surface_band[..nf]);
+        complete_band_rows(
+            &ctx,
+            &e.surface_band[..nf],
+            &e.dirichlet,
+            densities,
+            (equation == Equation::Dg).then_some(&e.a[..nf]),
+            &mut e.matrix,
+        )
+        .map_err(|source| StepError::Assembly { step, t, source })?;
+        phases.add(Phase::Assembly, clock);
+    }
     // The level term fixes the pressure's constant (`p c` is not invariant under it): only a free
     // surface may fix it, so a closed domain keeps its gauge and its lift, without the term.
     let level_term = e.config.level_consistent && !closed;
@@ -528,6 +543,17 @@ fn correct_density<D: Dim>(
             &mut e.rhs,
         )
         .map_err(|source| StepError::Assembly { step, t, source })?;
+        if e.config.free_surface.is_some_and(|f| f.complete_band) {
+            complete_band_rows(
+                &ctx,
+                &e.surface_band[..nf],
+                &e.dirichlet,
+                densities,
+                None,
+                &mut e.matrix,
+            )
+            .map_err(|source| StepError::Assembly { step, t, source })?;
+        }
         // Zero Neumann data: the wall rows' right-hand side is 0.
         e.wall_grad.fill(D::Vector::ZERO);
         let ghosts = e
@@ -630,6 +656,28 @@ fn boundary_rows<D: Dim, K: Kernel<D>>(
         assemble_surface_rows(ctx, dirichlet, corrections, robin, first_wall, matrix, rhs)?;
     }
     Ok(())
+}
+
+/// Completes the pressure rows of the free surface's band (`band`, less the surface particles
+/// `surface`) with the neighbours a lattice cut at their depth misses, read as `p = 0`
+/// ([`sph_pressure::complete_cut_rows`]; `FreeSurface::complete_band`): the PPE's rows with
+/// `M_i = I/ρ_i`, DG's (`a`: the matrices `A_i`) with `cof(A_i)/ρ_i`.
+fn complete_band_rows<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    band: &[bool],
+    surface: &[bool],
+    densities: &[f64],
+    a: Option<&[D::Matrix]>,
+    matrix: &mut sph_pressure::CsrMatrix,
+) -> Result<(), sph_pressure::PressureError> {
+    let Some(cut) = CutLattice::new::<D, K>(ctx.kernel, ctx.volumes[0]) else {
+        return Ok(());
+    };
+    let metric = |i: usize| match a {
+        None => D::Matrix::IDENTITY * (1.0 / densities[i]),
+        Some(a) => a[i].cofactor() * (1.0 / densities[i]),
+    };
+    complete_cut_rows(ctx, band, surface, &cut, &metric, band.len(), matrix)
 }
 
 /// `band[i]` for the first `band.len()` particles: whether a free-surface particle (`dirichlet`)

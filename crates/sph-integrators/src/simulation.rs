@@ -517,6 +517,7 @@ impl<D: Dim> Simulation<D> {
         if e.config.density_relaxation > 0.0
             || e.config.level_consistent
             || e.config.normalised_gradient
+            || e.config.free_surface.is_some_and(|f| f.complete_band)
         {
             e.surface_band.resize(n, false);
         }

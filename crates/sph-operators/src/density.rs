@@ -126,11 +126,38 @@ const MAX_CUT_ROWS: usize = 16;
 /// (`S` and `N` scale alike), so a particle's own ratio `R_i = h |Σ_j V_j ∇W_ij| / Σ_j V_j W_ij`
 /// says how deep below a flat face it stands and [`CutLattice::reference`] the Shepard sum it
 /// would have there: what [`kernel_sum_excess_near_surface`] measures a cut support against.
+///
+/// It also tabulates, for the completion of a cut pressure row
+/// ([`CutLattice::missing_moments`]), what the face cuts off the Laplacian's and the Eq. 25
+/// Hessian's stencils: the moments of `F = x·∇W/(r² + η²)` (the Morris factor,
+/// [`laplacian_regulariser`](crate::laplacian_regulariser) `η²`) over the lattice points beyond
+/// the face,
+///
+/// ```text
+/// P(k) = V Σ_{x_1 > k} F,   Q_n(k) = V Σ_{x_1 > k} F x_1²/r²,   Q_t(k) = V Σ_{x_1 > k} F x_2²/r²
+/// ```
+///
+/// (`x_1 > k`: beyond the face, `(k + ½) Δx` above the particle; `Q_n + (D − 1) Q_t = P`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CutLattice {
     rows: usize,
     sums: [f64; MAX_CUT_ROWS],
     ratios: [f64; MAX_CUT_ROWS],
+    missing: [[f64; 3]; MAX_CUT_ROWS],
+}
+
+/// What a flat face cuts off a lattice particle's Laplacian and Hessian stencils
+/// ([`CutLattice::missing_moments`]): `p = V Σ F`, `q_normal = V Σ F x_n²/r²` and
+/// `q_tangential = V Σ F x_t²/r²` over the lattice points beyond the face (`x_n` along the
+/// face's outward normal, `x_t` along one direction in the face). All `≤ 0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MissingMoments {
+    /// `V Σ F` over the points beyond the face.
+    pub p: f64,
+    /// `V Σ F x_n²/r²`, the normal–normal second moment.
+    pub q_normal: f64,
+    /// `V Σ F x_t²/r²` for one tangential direction.
+    pub q_tangential: f64,
 }
 
 impl CutLattice {
@@ -145,6 +172,8 @@ impl CutLattice {
         let h = kernel.h();
         let mut sums = [0.0; MAX_CUT_ROWS];
         let mut ratios = [0.0; MAX_CUT_ROWS];
+        let mut missing = [[0.0; 3]; MAX_CUT_ROWS];
+        let eta2 = crate::laplacian_regulariser(h);
         for k in 0..=reach {
             // Lattice points are whole multiples of Δx: half a spacing decides the cut exactly.
             let below = |x: D::Vector| x.get(0) < (k as f64 + 0.5) * dx;
@@ -161,11 +190,69 @@ impl CutLattice {
             }) * volume;
             sums[k] = s;
             ratios[k] = if k == reach { 0.0 } else { h * n.abs() / s };
+            // F x_l²/r² over the points beyond the face, l = normal (0) and tangential (1).
+            let beyond = |l: Option<usize>| {
+                over_lattice::<D, K>(kernel, volume, |x| {
+                    let r2 = x.length_squared();
+                    if below(x) || r2 == 0.0 {
+                        return 0.0;
+                    }
+                    let r = r2.sqrt();
+                    let f = kernel.dw_dr(r) * r / (r2 + eta2);
+                    match l {
+                        Some(l) => f * x.get(l) * x.get(l) / r2,
+                        None => f,
+                    }
+                }) * volume
+            };
+            let tangential = if D::DIM > 1 { beyond(Some(1)) } else { 0.0 };
+            missing[k] = [beyond(None), beyond(Some(0)), tangential];
         }
         Some(Self {
             rows: reach + 1,
             sums,
             ratios,
+            missing,
+        })
+    }
+
+    /// The row (`k`) a truncation ratio falls at and the fraction `f` of the way to row
+    /// `k + 1` (linear in `R`); `None` beyond the face row's ratio by more than the fraction
+    /// `slack` of it (a ratio within the slack is the face row's).
+    fn locate(&self, ratio: f64, slack: f64) -> Option<(usize, f64)> {
+        // Beyond the face row's ratio, or not a number: no flat face explains it.
+        if ratio.is_nan() || ratio > self.ratios[0] * (1.0 + slack) {
+            return None;
+        }
+        let ratio = ratio.min(self.ratios[0]);
+        let last = self.rows - 1;
+        let mut k = 0;
+        while k < last && self.ratios[k + 1] >= ratio {
+            k += 1;
+        }
+        if k == last {
+            return Some((last, 0.0));
+        }
+        Some((
+            k,
+            (self.ratios[k] - ratio) / (self.ratios[k] - self.ratios[k + 1]),
+        ))
+    }
+
+    /// What the face cuts off the stencils of a lattice particle whose truncation ratio is
+    /// `ratio` ([`MissingMoments`]), linear in `R` between the rows like
+    /// [`CutLattice::reference`]; zero in the bulk, `None` where `ratio` exceeds the face row's.
+    /// A ratio above the face row's by round-off (1e-9 of it) is the face row's.
+    pub fn missing_moments(&self, ratio: f64) -> Option<MissingMoments> {
+        let (k, f) = self.locate(ratio, 1e-9)?;
+        let at = |m: usize| {
+            let next = self.missing[(k + 1).min(self.rows - 1)][m];
+            (1.0 - f) * self.missing[k][m] + f * next
+        };
+        Some(MissingMoments {
+            p: at(0),
+            q_normal: at(1),
+            q_tangential: at(2),
         })
     }
 
@@ -173,20 +260,9 @@ impl CutLattice {
     /// linear in `R` between the rows; `None` when `ratio` exceeds the face row's `R(0)` (a
     /// corner, a thin sheet or a jet: cut more than a flat face cuts).
     pub fn reference(&self, ratio: f64) -> Option<f64> {
-        // Beyond the face row's ratio, or not a number: no flat face explains it.
-        if ratio.is_nan() || ratio > self.ratios[0] {
-            return None;
-        }
-        let last = self.rows - 1;
-        let mut k = 0;
-        while k < last && self.ratios[k + 1] >= ratio {
-            k += 1;
-        }
-        if k == last {
-            return Some(self.sums[last]);
-        }
-        let f = (self.ratios[k] - ratio) / (self.ratios[k] - self.ratios[k + 1]);
-        Some((1.0 - f) * self.sums[k] + f * self.sums[k + 1])
+        let (k, f) = self.locate(ratio, 0.0)?;
+        let next = self.sums[(k + 1).min(self.rows - 1)];
+        Some((1.0 - f) * self.sums[k] + f * next)
     }
 }
 

@@ -95,7 +95,7 @@ pub use context::{
 pub use correction::{CorrectionStats, correction_matrices};
 pub use deformation::{Invariants, deformation_gradient, invariants, velocity_gradient};
 pub use density::{
-    CutLattice, density_at_points, density_summation, kernel_sum_excess,
+    CutLattice, MissingMoments, density_at_points, density_summation, kernel_sum_excess,
     kernel_sum_excess_near_surface, lattice_kernel_sum,
 };
 pub use divergence::divergence;

@@ -6,7 +6,8 @@ use rayon::prelude::*;
 use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
 use sph_operators::{
-    SphContext, hessian_stencil_eq25_contracted, hessian_stencil_fit, laplacian_regulariser,
+    CutLattice, SphContext, hessian_stencil_eq25_contracted, hessian_stencil_fit,
+    laplacian_regulariser,
 };
 
 /// Discrete Hessian used in the DG equation.
@@ -233,6 +234,70 @@ pub fn add_level_term<D: Dim, K: Kernel<D>>(
         });
         let diag = diag.expect("neighbour rows contain the particle");
         row[diag] += level[i].dot(sigma) / densities[i];
+    });
+    check_finite(values, offsets, &[])
+}
+
+/// Completes the rows of the particles in a free surface's band (`band[i]`: a free-surface
+/// particle in the support; rows `0..rows`, the surface particles' own, `surface[i]`, left
+/// alone) with the part of their stencil the surface cuts off, read as air at `p = 0`: where the
+/// assembled row (Morris's Laplacian, or DG's Eq. 25 Hessian contracted with `M_i = cof(A_i)/ρ_i`)
+/// has no neighbours beyond the surface, it reads them as `p_j = p_i` (no flux into the air);
+/// the completion adds, on the diagonal, what the neighbours a perfect lattice would have there
+/// contribute at `p_j = 0`:
+///
+/// ```text
+/// row_i += p_i Σ_{j beyond} M_i : C_ij = −p_i [(d + 2) M_i : Q_i − tr M_i · P_i],
+/// Q_i = q_n n_i⊗n_i + q_t (I − n_i⊗n_i)
+/// ```
+///
+/// with `C_ij = −V_j F_ij ((d + 2) x_ij⊗x_ij/r² − I)` the Eq. 25 stencil (whose trace is Morris's,
+/// so `M = I/ρ` gives the PPE's `−2 P_i/ρ_i`), `(P, q_n, q_t)` the [`CutLattice`]'s missing
+/// moments at the particle's truncation ratio `R_i = h |Σ_j V_j ∇W_ij| / Σ_j V_j W_ij` and `n_i`
+/// the outward normal `−Σ_j V_j ∇W_ij / |…|`. On a perfect lattice with a flat face the
+/// completed row is the whole lattice's row with the air's pressures 0, to round-off. Rows
+/// whose support is cut more than a flat face cuts (`R_i` beyond the face row's), or not at all,
+/// are left alone. `metric(i)` is `M_i`; rows are negated like the assembled ones.
+pub fn complete_cut_rows<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    band: &[bool],
+    surface: &[bool],
+    cut: &CutLattice,
+    metric: &(dyn Fn(usize) -> D::Matrix + Sync),
+    rows: usize,
+    matrix: &mut CsrMatrix,
+) -> Result<(), PressureError> {
+    assert!(band.len() >= rows && surface.len() >= rows && rows <= ctx.len());
+    let nl = ctx.neighbors;
+    let (offsets, values) = assembled_rows(nl.offsets(), &mut matrix.values, rows);
+    let h = ctx.kernel.h();
+    let d = D::DIM as f64;
+    for_each_row_mut(offsets, values, &|i, row| {
+        if !band[i] || surface[i] {
+            return;
+        }
+        let (mut sum, mut nu, mut diag) = (0.0, D::Vector::ZERO, None);
+        ctx.for_each_pair(i, |p| {
+            if p.j == i {
+                diag = Some(p.k);
+            }
+            sum += ctx.volumes[p.j] * ctx.w_of(&p);
+            nu += p.grad_w * ctx.volumes[p.j];
+        });
+        let length = nu.length();
+        if length == 0.0 || sum <= 0.0 {
+            return;
+        }
+        let Some(m) = cut.missing_moments(h * length / sum) else {
+            return;
+        };
+        let n = nu * (-1.0 / length);
+        let metric = metric(i);
+        let trace = metric.trace();
+        let nmn = metric.quadratic_form(n);
+        let mq = m.q_normal * nmn + m.q_tangential * (trace - nmn);
+        let diag = diag.expect("neighbour rows contain the particle");
+        row[diag] -= (d + 2.0) * mq - trace * m.p;
     });
     check_finite(values, offsets, &[])
 }

@@ -44,7 +44,9 @@ mod error;
 pub mod solver;
 mod walls;
 
-pub use assembly::{DgHessian, PressureRhs, add_level_term, assemble_dg, assemble_ppe};
+pub use assembly::{
+    DgHessian, PressureRhs, add_level_term, assemble_dg, assemble_ppe, complete_cut_rows,
+};
 pub use csr::CsrMatrix;
 pub use error::{PressureError, SolveError};
 pub use solver::{

@@ -1055,3 +1055,88 @@ sph_core::dim_tests! {
         }
     }
 }
+
+sph_core::dim_tests! {
+    fn completed_band_rows_are_the_whole_lattices_rows_with_the_air_at_zero<D>() {
+        // A lattice cut by a flat face across y (the points with y ≤ 0 kept): each kept row the
+        // face cuts, completed, equals the whole lattice's row with the pressures beyond the
+        // face set to 0 — PPE rows (ρ = 1.3) and DG rows (a different A at every particle) —
+        // and the rows whose support the face does not reach are unchanged.
+        let per_side = if D::DIM == 2 { 25 } else { 13 };
+        let dx = 1.0 / per_side as f64;
+        let full: Vec<D::Vector> = lattice::<D>(per_side, dx);
+        let kernel = QuinticSpline::<D>::new(1.3 * dx);
+        let reach = kernel.support_radius();
+        let rows_of = |pts: &[D::Vector]| {
+            let mut grid = CellGrid::<D>::new();
+            grid.build(pts, reach).unwrap();
+            let mut nl = NeighborList::new();
+            grid.query(pts, &mut nl);
+            nl
+        };
+        let kept: Vec<usize> = (0..full.len()).filter(|&i| full[i].get(1) <= 0.5 * dx).collect();
+        let cut: Vec<D::Vector> = kept.iter().map(|&i| full[i]).collect();
+        let (nl_full, nl_cut) = (rows_of(&full), rows_of(&cut));
+        let (nf, nc) = (full.len(), cut.len());
+        let volume = dx.powi(D::DIM as i32);
+        let half = 0.5 * (per_side as f64 - 1.0) * dx;
+        let mut rng = SplitMix64::new(3);
+        let p_cut: Vec<f64> = (0..nc).map(|_| rng.uniform(-1.0, 2.0)).collect();
+        let mut p_full = vec![0.0; nf];
+        for (k, &i) in kept.iter().enumerate() {
+            p_full[i] = p_cut[k];
+        }
+        let a_full: Vec<D::Matrix> = (0..nf)
+            .map(|_| D::Matrix::from_fn(|r, c| if r == c { 1.0 } else { 0.0 } + rng.uniform(-0.1, 0.1)))
+            .collect();
+        let a_cut: Vec<D::Matrix> = kept.iter().map(|&i| a_full[i]).collect();
+        let lattice_cut = sph_operators::CutLattice::new::<D, _>(&kernel, volume).unwrap();
+        let band = vec![true; nc];
+        let mut tested = [0usize; 2];
+        for dg in [false, true] {
+            let rho = 1.3;
+            let assemble = |pts: &[D::Vector], nl: &NeighborList, a: &[D::Matrix], complete: bool| {
+                let n = pts.len();
+                let vols = vec![volume; n];
+                let ctx = SphContext::new(pts, &vols, nl, &kernel);
+                let (dens, masses, zeros) = (vec![rho; n], vec![volume * rho; n], vec![0.0; n]);
+                let none = vec![false; n];
+                let (mut m, mut rhs) = (CsrMatrix::default(), vec![0.0; n]);
+                if dg {
+                    assemble_dg(&ctx, &dens, a, &zeros, 1.0, DgHessian::Eq25, &none, None, n, &mut m, &mut rhs).unwrap();
+                } else {
+                    assemble_ppe(&ctx, &masses, &dens, &zeros, 1.0, &none, None, n, &mut m, &mut rhs).unwrap();
+                }
+                let plain = m.clone();
+                if complete {
+                    let metric = |i: usize| if dg { a[i].cofactor() * (1.0 / rho) } else { D::Matrix::IDENTITY * (1.0 / rho) };
+                    crate::complete_cut_rows(&ctx, &band, &none, &lattice_cut, &metric, n, &mut m).unwrap();
+                }
+                (plain, m)
+            };
+            let (_, whole) = assemble(&full, &nl_full, &a_full, false);
+            let (plain, completed) = assemble(&cut, &nl_cut, &a_cut, true);
+            let (mut want, mut got, mut before) = (vec![0.0; nf], vec![0.0; nc], vec![0.0; nc]);
+            whole.matvec(nl_full.offsets(), nl_full.indices(), &p_full, &mut want);
+            completed.matvec(nl_cut.offsets(), nl_cut.indices(), &p_cut, &mut got);
+            plain.matvec(nl_cut.offsets(), nl_cut.indices(), &p_cut, &mut before);
+            for (k, &i) in kept.iter().enumerate() {
+                let x = cut[k];
+                // Supports the other faces of the block do not cut.
+                let inside = x.get(1) >= -half + reach && (0..D::DIM).filter(|&l| l != 1).all(|l| x.get(l).abs() <= half - reach);
+                if !inside {
+                    continue;
+                }
+                let scale = want[i].abs().max(1.0);
+                if x.get(1) > -reach {
+                    assert!((got[k] - want[i]).abs() <= 1e-9 * scale, "dg {dg}, row at depth {}: {} against {}", -x.get(1) / dx, got[k], want[i]);
+                    assert!((before[k] - want[i]).abs() > 1e-6 * scale || x.get(1) < -reach + 1.5 * dx, "dg {dg}: the face changes row at depth {}", -x.get(1) / dx);
+                    tested[dg as usize] += 1;
+                } else {
+                    assert!((got[k] - before[k]).abs() <= 1e-12 * scale, "dg {dg}: a bulk row changed: {} against {}", got[k], before[k]);
+                }
+            }
+        }
+        assert!(tested.iter().all(|&t| t >= 3 * (D::DIM - 1)), "rows tested: {tested:?}");
+    }
+}
