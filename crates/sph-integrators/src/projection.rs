@@ -281,6 +281,7 @@ pub(crate) fn project<D: Dim>(
             &e.dirichlet,
             densities,
             (equation == Equation::Dg).then_some(&e.a[..nf]),
+            &mut e.cut_lattice,
             &mut e.matrix,
         )
         .map_err(|source| StepError::Assembly { step, t, source })?;
@@ -550,6 +551,7 @@ fn correct_density<D: Dim>(
                 &e.dirichlet,
                 densities,
                 None,
+                &mut e.cut_lattice,
                 &mut e.matrix,
             )
             .map_err(|source| StepError::Assembly { step, t, source })?;
@@ -661,23 +663,30 @@ fn boundary_rows<D: Dim, K: Kernel<D>>(
 /// Completes the pressure rows of the free surface's band (`band`, less the surface particles
 /// `surface`) with the neighbours a lattice cut at their depth misses, read as `p = 0`
 /// ([`sph_pressure::complete_cut_rows`]; `FreeSurface::complete_band`): the PPE's rows with
-/// `M_i = I/ρ_i`, DG's (`a`: the matrices `A_i`) with `cof(A_i)/ρ_i`.
+/// `M_i = I/ρ_i`, DG's (`a`: the matrices `A_i`) with `cof(A_i)/ρ_i`. `table` keeps the cut
+/// lattice between calls, rebuilt when the particle volume changes (a support wider than the
+/// table's 15 spacings: nothing is completed).
 fn complete_band_rows<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     band: &[bool],
     surface: &[bool],
     densities: &[f64],
     a: Option<&[D::Matrix]>,
+    table: &mut Option<(f64, CutLattice)>,
     matrix: &mut sph_pressure::CsrMatrix,
 ) -> Result<(), sph_pressure::PressureError> {
-    let Some(cut) = CutLattice::new::<D, K>(ctx.kernel, ctx.volumes[0]) else {
+    let volume = ctx.volumes[0];
+    if table.as_ref().is_none_or(|(v, _)| *v != volume) {
+        *table = CutLattice::new::<D, K>(ctx.kernel, volume).map(|c| (volume, c));
+    }
+    let Some((_, cut)) = table else {
         return Ok(());
     };
     let metric = |i: usize| match a {
         None => D::Matrix::IDENTITY * (1.0 / densities[i]),
         Some(a) => a[i].cofactor() * (1.0 / densities[i]),
     };
-    complete_cut_rows(ctx, band, surface, &cut, &metric, band.len(), matrix)
+    complete_cut_rows(ctx, band, surface, cut, &metric, band.len(), matrix)
 }
 
 /// `band[i]` for the first `band.len()` particles: whether a free-surface particle (`dirichlet`)

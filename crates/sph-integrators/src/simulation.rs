@@ -107,6 +107,9 @@ pub(crate) struct Engine<D: Dim> {
     /// particle is in its support (then its excess is not corrected).
     pub(crate) excess: Vec<f64>,
     pub(crate) surface_band: Vec<bool>,
+    /// The cut-lattice table of the band's completed pressure rows and the particle volume it
+    /// was built for (rebuilt only when the volume changes).
+    pub(crate) cut_lattice: Option<(f64, sph_operators::CutLattice)>,
     /// Density correction: the solver of its equation when the projection's is another one
     /// (DG-ISPH), its potential `q` and the displacements `−Δt² ∇q/ρ` it hands the scheme.
     pub(crate) correction_solver: AnySolver,
@@ -248,6 +251,7 @@ impl<D: Dim> Simulation<D> {
             source: Vec::new(),
             excess: Vec::new(),
             surface_band: Vec::new(),
+            cut_lattice: None,
             correction_solver: AnySolver::new(config.solver),
             potential: Vec::new(),
             correction: Vec::new(),
