@@ -142,7 +142,7 @@ impl Overrides {
                 },
                 None => ShiftingSpec {
                     coefficient: a,
-                    velocity: Default::default(),
+                    velocity: None,
                     velocity_correction: None,
                 },
             });

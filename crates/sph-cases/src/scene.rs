@@ -171,10 +171,10 @@ fn one() -> f64 {
 pub struct ShiftingSpec {
     /// Lind et al.'s `A` (they use 2).
     pub coefficient: f64,
-    /// The speed scaling the shift: `"local"` (`|u_i|`, the default) or `"max"` (the largest
-    /// fluid speed, Sun et al. 2017).
-    #[serde(default)]
-    pub velocity: ShiftScale,
+    /// The speed scaling the shift: `"local"` (`|u_i|`) or `"max"` (the largest fluid speed,
+    /// Sun et al. 2017). Default: `"max"` for `flow` scenes without a free surface, `"local"`
+    /// otherwise (see [`Scene::sim_config`]).
+    pub velocity: Option<ShiftScale>,
     /// How the velocity follows the shift: `"taylor"` (Xu et al. 2009's correction; the default
     /// of the paper's cases), `"limited"` (that correction kept within the range of the
     /// neighbours' velocities; the default of `flow` and `dam_break` scenes) or `"none"`.
@@ -489,7 +489,13 @@ impl Scene {
         let mut config = SimConfig::new(self.kernel, self.h());
         config.rho0 = self.rho0();
         let flow = self.case.uses_blocks();
-        let gradient = self.pressure.gradient.unwrap_or(if flow {
+        // A flow scene's operators follow its boundary (docs/physics.md, "The flow scenes'
+        // numerics"): with a free surface the symmetric pair (energy-safe at impacts, its
+        // pressure level fixed by p = 0 on the surface); without one (periodic, sealed or
+        // walled) the pressure's level is arbitrary, and only the renormalised difference pair
+        // does not depend on it — exact for linear fields, with nothing to impact.
+        let surface_flow = flow && self.free_surface.is_some();
+        let gradient = self.pressure.gradient.unwrap_or(if surface_flow {
             GradientChoice::Symmetric
         } else {
             GradientChoice::Difference
@@ -499,7 +505,10 @@ impl Scene {
             GradientChoice::Symmetric => sph_operators::GradientForm::Symmetric,
             GradientChoice::Adjoint => sph_operators::GradientForm::Adjoint,
         };
-        config.renormalise = self.pressure.renormalise.unwrap_or(!flow);
+        config.renormalise = self
+            .pressure
+            .renormalise
+            .unwrap_or(!flow || (!surface_flow && gradient != GradientChoice::Symmetric));
         config.consistent_laplacian = self.pressure.consistent_laplacian.unwrap_or(false);
         // The symmetric gradient's projection is made consistent at any pressure level
         // (docs/physics.md, "The symmetric gradient at a pressure level").
@@ -559,7 +568,13 @@ impl Scene {
             gravity: self.effects.gravity,
             shifting: self.effects.shifting.map(|s| Shifting {
                 coefficient: s.coefficient,
-                scale: s.velocity,
+                // Scaled by each particle's own speed the shift does not act at a closed
+                // flow's stagnation points and vortex centres (docs/physics.md).
+                scale: s.velocity.unwrap_or(if flow && !surface_flow {
+                    ShiftScale::Max
+                } else {
+                    ShiftScale::Local
+                }),
                 velocity_correction: s.velocity_correction.unwrap_or(if flow {
                     ShiftVelocity::Limited
                 } else {

@@ -377,3 +377,60 @@ fn density_relaxation_defaults_by_case_and_is_checked() {
     let e = config(&with("0.05\ndensity_relaxation_form = \"pressure\"")).unwrap_err();
     assert!(e.to_string().contains("density_relaxation_form"), "{e}");
 }
+
+#[test]
+fn flow_scenes_operators_follow_their_boundary() {
+    use sph_integrators::ShiftScale;
+    use sph_operators::GradientForm;
+    let shifting = "[effects]\ngravity = [0.0, -9.81, 0.0]\nshifting = { coefficient = 2.0 }";
+    let open = TANK.replace("[effects]\ngravity = [0.0, -9.81, 0.0]", shifting);
+    let sealed = open.replace(
+        "open = [\"+y\"]\n[free_surface]\ndiv_r_threshold = 1.5\n",
+        "",
+    );
+    assert_ne!(open, sealed);
+    let config = |text: &str| Scene::parse("tank.toml", text).unwrap().sim_config();
+    let scale = |c: &SimConfig| c.effects.shifting.map(|s| s.scale);
+    // With a free surface: the symmetric pair with its level term, the shift scaled locally.
+    let c = config(&open);
+    assert_eq!(
+        (c.gradient, c.renormalise),
+        (GradientForm::Symmetric, false)
+    );
+    assert!(c.level_consistent && c.normalised_gradient);
+    assert_eq!(scale(&c), Some(ShiftScale::Local));
+    // Without one: the renormalised difference pair, which no pressure level changes, and δ⁺.
+    let c = config(&sealed);
+    assert!(c.free_surface.is_none());
+    assert_eq!(
+        (c.gradient, c.renormalise),
+        (GradientForm::Difference, true)
+    );
+    assert!(!c.level_consistent && !c.normalised_gradient);
+    assert_eq!(scale(&c), Some(ShiftScale::Max));
+    // A key still overrides each choice; a symmetric gradient chosen for a closed flow is not
+    // renormalised (its default pairing).
+    let chosen = sealed.replace(
+        "[effects]",
+        "[pressure]\ngradient = \"symmetric\"\n[effects]",
+    );
+    let c = config(&chosen.replace(
+        "coefficient = 2.0",
+        "coefficient = 2.0, velocity = \"local\"",
+    ));
+    assert_eq!(
+        (c.gradient, c.renormalise),
+        (GradientForm::Symmetric, false)
+    );
+    assert!(c.level_consistent);
+    assert_eq!(scale(&c), Some(ShiftScale::Local));
+    // The paper's cases keep the paper's operators and local scaling.
+    let c = config(&format!(
+        "{GOOD}\n[effects]\nshifting = {{ coefficient = 2.0 }}"
+    ));
+    assert_eq!(
+        (c.gradient, c.renormalise),
+        (GradientForm::Difference, true)
+    );
+    assert_eq!(scale(&c), Some(ShiftScale::Local));
+}

@@ -580,16 +580,16 @@ fn a_runaway_flow_stops_when_the_automatic_step_collapses() {
 
 sph_core::dim_tests! {
 /// A sealed tank full of water at rest under gravity (walls on every side, no free surface, a
-/// lattice start, the flow scenes' defaults) stays at rest for every scheme: its largest speed
-/// stays under 1 % of √(gH). The closed domain fixes the pressure only up to a constant; with
-/// the mean-zero gauge the upper half of the tank is under negative pressure, where the
-/// symmetric gradient pulls particles together (the tensile instability): the 2D tank blew up
-/// at t = 0.23 and the 3D one reached 0.17 m/s (5 % of √(gH)) by t = 1. The projection now
-/// lifts the pressure so that its lowest value is 0 (`docs/physics.md`). The 2D run stops at
-/// t = 0.5: from t ≈ 0.6 a square lattice under pressure rearranges itself (rows sliding past
-/// each other from the floor up), another mechanism (docs/hard-cases.md).
+/// lattice start, the flow scenes' defaults) stays at rest for every scheme, to round-off: its
+/// largest speed stays under 1e-8 m/s to t = 3 (2D) and t = 2 (3D); measured 8e-13 to 5e-12.
+/// Without a free surface the flow scenes take the renormalised difference pair, exact for the
+/// hydrostatic field and blind to the pressure's level, which a closed domain leaves arbitrary.
+/// With the symmetric gradient (the free-surface default, lifted so that the lowest pressure is
+/// 0: a mean-zero level put the upper half under tension and blew the 2D tank up at t = 0.23)
+/// the lattice under pressure rearranges itself from t ≈ 0.6, rows sliding past each other from
+/// the floor up: 0.14-0.32 % of √(gH) by t = 3 (docs/physics.md, "The flow scenes' numerics").
 fn a_sealed_tank_under_gravity_stays_at_rest<D>() {
-    let (dx, t_end) = if D::DIM == 2 { (0.05, 0.5) } else { (0.1, 1.0) };
+    let (dx, t_end) = if D::DIM == 2 { (0.05, 3.0) } else { (0.1, 2.0) };
     let v = |a: f64, b: f64| point(D::DIM, a, b);
     let (lo, hi) = (v(0.0, 0.0), v(0.6, 1.0));
     let text = format!(
@@ -606,12 +606,25 @@ fn a_sealed_tank_under_gravity_stays_at_rest<D>() {
         let (out, sink) = crate::support::run(&scene, kind);
         assert!(out.failure.is_none(), "{kind:?}: {:?}", out.failure);
         let fastest = sink.column("max_speed").into_iter().fold(0.0, f64::max);
-        let limit = 0.01 * (9.81_f64 * 1.0).sqrt();
+        let limit = 1e-8;
         assert!(
             fastest < limit,
-            "{kind:?}: largest speed {fastest:.4} m/s, {:.2} % of √(gH)",
-            fastest / limit
+            "{kind:?}: largest speed {fastest:.3e} m/s, {:.2e} % of √(gH)",
+            100.0 * fastest / 9.81_f64.sqrt()
         );
+    }
+    // The symmetric gradient chosen for the same tank holds it only through the lift, to t =
+    // 0.5, under 1 % of √(gH) (2D: 8e-13 m/s, the rearrangement starts later).
+    let symmetric = text
+        .replace(&format!("t_end = {t_end}"), "t_end = 0.5")
+        .replace("[effects]", "[pressure]\ngradient = \"symmetric\"\n[effects]");
+    let scene = parse_scene("sealed tank, symmetric", &symmetric).unwrap();
+    for kind in SchemeKind::ALL {
+        let (out, sink) = crate::support::run(&scene, kind);
+        assert!(out.failure.is_none(), "{kind:?}: {:?}", out.failure);
+        let fastest = sink.column("max_speed").into_iter().fold(0.0, f64::max);
+        let limit = 0.01 * 9.81_f64.sqrt();
+        assert!(fastest < limit, "{kind:?}, symmetric: {fastest:.4} m/s");
     }
 }
 }
