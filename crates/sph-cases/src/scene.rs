@@ -494,8 +494,8 @@ impl Scene {
         // pressure level fixed by p = 0 on the surface); without one (periodic, sealed or
         // walled) the pressure's level is arbitrary, and only the renormalised difference pair
         // does not depend on it — exact for linear fields, with nothing to impact.
-        let surface_flow = flow && self.free_surface.is_some();
-        let gradient = self.pressure.gradient.unwrap_or(if surface_flow {
+        let closed_flow = flow && self.free_surface.is_none();
+        let gradient = self.pressure.gradient.unwrap_or(if flow && !closed_flow {
             GradientChoice::Symmetric
         } else {
             GradientChoice::Difference
@@ -508,7 +508,7 @@ impl Scene {
         config.renormalise = self
             .pressure
             .renormalise
-            .unwrap_or(!flow || (!surface_flow && gradient != GradientChoice::Symmetric));
+            .unwrap_or(!flow || (closed_flow && gradient != GradientChoice::Symmetric));
         config.consistent_laplacian = self.pressure.consistent_laplacian.unwrap_or(false);
         // The symmetric gradient's projection is made consistent at any pressure level
         // (docs/physics.md, "The symmetric gradient at a pressure level").
@@ -570,7 +570,7 @@ impl Scene {
                 coefficient: s.coefficient,
                 // Scaled by each particle's own speed the shift does not act at a closed
                 // flow's stagnation points and vortex centres (docs/physics.md).
-                scale: s.velocity.unwrap_or(if flow && !surface_flow {
+                scale: s.velocity.unwrap_or(if closed_flow {
                     ShiftScale::Max
                 } else {
                     ShiftScale::Local
