@@ -171,9 +171,11 @@ fn one() -> f64 {
 pub struct ShiftingSpec {
     /// Lind et al.'s `A` (they use 2).
     pub coefficient: f64,
-    /// The speed scaling the shift: `"local"` (`|u_i|`) or `"max"` (the largest fluid speed,
-    /// Sun et al. 2017). Default: `"max"` for `flow` scenes without a free surface, `"local"`
-    /// otherwise (see [`Scene::sim_config`]).
+    /// The speed scaling the shift: `"local"` (`|u_i|`), `"max"` (the largest fluid speed,
+    /// Sun et al. 2017) or `"tension"` (the largest where the particle's pressure is negative,
+    /// its own elsewhere; only with a free surface, which fixes the pressure's level). Default:
+    /// `"max"` for `flow` scenes without a free surface, `"tension"` for `flow` and `dam_break`
+    /// scenes with one, `"local"` for the paper's cases (see [`Scene::sim_config`]).
     pub velocity: Option<ShiftScale>,
     /// How the velocity follows the shift: `"taylor"` (Xu et al. 2009's correction; the default
     /// of the paper's cases), `"limited"` (that correction kept within the range of the
@@ -569,9 +571,12 @@ impl Scene {
             shifting: self.effects.shifting.map(|s| Shifting {
                 coefficient: s.coefficient,
                 // Scaled by each particle's own speed the shift does not act at a closed
-                // flow's stagnation points and vortex centres (docs/physics.md).
+                // flow's stagnation points and vortex centres, nor at the slow core of a fluid
+                // in tension, whose particles then pair (docs/physics.md).
                 scale: s.velocity.unwrap_or(if closed_flow {
                     ShiftScale::Max
+                } else if flow {
+                    ShiftScale::Tension
                 } else {
                     ShiftScale::Local
                 }),
@@ -1159,6 +1164,16 @@ impl Validator<'_> {
             && !positive(sh.coefficient)
         {
             return self.bad("effects.shifting.coefficient", "must be positive");
+        }
+        if let Some(sh) = s.effects.shifting
+            && sh.velocity == Some(ShiftScale::Tension)
+            && s.free_surface.is_none()
+        {
+            return self.bad(
+                "effects.shifting.velocity",
+                "\"tension\" reads the sign of the pressure, whose level only a free surface \
+                 fixes: it needs a [free_surface] section",
+            );
         }
         Ok(())
     }

@@ -141,6 +141,12 @@ pub enum ShiftScale {
     /// δ⁺-SPH: `CFL · Ma = U_max Δt / h`): stagnation points and slow cores are regularised
     /// as strongly as the fast parts of the flow.
     Max,
+    /// The particle's own speed where its new pressure is not negative, the largest fluid speed
+    /// where it is (`p_i < 0`): the anti-clumping shift acts at full strength where the tensile
+    /// instability can pair particles, even where the fluid is slow, and stays the local one
+    /// everywhere else. Meaningful only where the pressure's level is fixed (a free surface
+    /// with `p = 0`).
+    Tension,
 }
 
 /// Explicit terms of the momentum equation and particle regularisation. Each is computed only

@@ -178,7 +178,8 @@ fn intermediate_velocity<D: Dim>(
 const MAX_SHIFT: f64 = 0.2;
 
 /// Particle shifting (see [`Shifting`](crate::Shifting)) at the projection's configuration:
-/// adds `δr_i = −A h |uⁿ⁺¹_i| Δt ∇C_i` (only its part tangential to `∇C_i` on a free surface;
+/// adds `δr_i = −A h U_i Δt ∇C_i`, `U_i` the scale's speed ([`ShiftScale`](crate::ShiftScale):
+/// `|uⁿ⁺¹_i|`, the largest, or the largest where `pⁿ⁺¹_i < 0`) (only its part tangential to `∇C_i` on a free surface;
 /// capped at 0.2 Δp, and at half the particle's distance to a wall, see
 /// [`Walls::limit_shift`](crate::Walls::limit_shift)) to the fluid displacements and corrects
 /// `uⁿ⁺¹_i += ∇uⁿ⁺¹_i δr_i`.
@@ -188,6 +189,8 @@ struct ShiftBuffers<'a, D: Dim> {
     u_new: &'a mut [D::Vector],
     u_old: &'a mut [D::Vector],
     disp: &'a mut [D::Vector],
+    /// The projection's new pressure (the tension scale reads its sign).
+    pressure: &'a [f64],
 }
 
 fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shifting, dt: f64) {
@@ -205,6 +208,7 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
     }
     // The velocities before any correction (the limiter's range).
     let u_old = &*b.u_old;
+    let pressure = b.pressure;
     let h = e.config.h;
     let cap = MAX_SHIFT * sh.spacing;
     let free = e.config.free_surface.is_some();
@@ -212,7 +216,7 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
     // δ⁺ scaling: the largest fluid speed (a maximum: the same in any order).
     let u_max = match sh.scale {
         ShiftScale::Local => 0.0,
-        ShiftScale::Max => b.u_new[..nf]
+        ShiftScale::Max | ShiftScale::Tension => b.u_new[..nf]
             .par_iter()
             .with_min_len(4096)
             .map(|u| u.length_squared())
@@ -230,6 +234,8 @@ fn shift<D: Dim>(e: &Engine<D>, b: ShiftBuffers<'_, D>, x: &[D::Vector], sh: Shi
             let speed = match sh.scale {
                 ShiftScale::Local => u_new.length(),
                 ShiftScale::Max => u_max,
+                ShiftScale::Tension if pressure[i] < 0.0 => u_max,
+                ShiftScale::Tension => u_new.length(),
             };
             let dr = g * (-sh.coefficient * h * speed * dt);
             // On a free surface only the part tangential to it is kept (Lind et al. 2012,
@@ -493,6 +499,7 @@ fn projection_passes<D: Dim>(
             u_new: &mut sim.buf.u_new,
             u_old: &mut sim.buf.u_shift,
             disp: &mut sim.buf.disp,
+            pressure: &sim.buf.p_work,
         };
         shift(&sim.engine, bufs, x_eval, sh, dt);
         phases.add(Phase::Shifting, clock);

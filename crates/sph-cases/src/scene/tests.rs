@@ -391,14 +391,15 @@ fn flow_scenes_operators_follow_their_boundary() {
     assert_ne!(open, sealed);
     let config = |text: &str| Scene::parse("tank.toml", text).unwrap().sim_config();
     let scale = |c: &SimConfig| c.effects.shifting.map(|s| s.scale);
-    // With a free surface: the symmetric pair with its level term, the shift scaled locally.
+    // With a free surface: the symmetric pair with its level term, the shift scaled locally
+    // and by the largest speed where the fluid is in tension.
     let c = config(&open);
     assert_eq!(
         (c.gradient, c.renormalise),
         (GradientForm::Symmetric, false)
     );
     assert!(c.level_consistent && c.normalised_gradient);
-    assert_eq!(scale(&c), Some(ShiftScale::Local));
+    assert_eq!(scale(&c), Some(ShiftScale::Tension));
     // Without one: the renormalised difference pair, which no pressure level changes, and δ⁺.
     let c = config(&sealed);
     assert!(c.free_surface.is_none());
@@ -424,6 +425,23 @@ fn flow_scenes_operators_follow_their_boundary() {
     );
     assert!(c.level_consistent);
     assert_eq!(scale(&c), Some(ShiftScale::Local));
+    // The tension scale reads the pressure's sign: a closed flow, whose level is arbitrary,
+    // may not choose it.
+    let tension = sealed.replace(
+        "coefficient = 2.0",
+        "coefficient = 2.0, velocity = \"tension\"",
+    );
+    assert_ne!(tension, sealed);
+    let err = Scene::parse("tank.toml", &tension).unwrap_err().to_string();
+    assert!(
+        err.contains("effects.shifting.velocity") && err.contains("free_surface"),
+        "{err}"
+    );
+    let c = config(&open.replace(
+        "coefficient = 2.0",
+        "coefficient = 2.0, velocity = \"tension\"",
+    ));
+    assert_eq!(scale(&c), Some(ShiftScale::Tension));
     // The paper's cases keep the paper's operators and local scaling.
     let c = config(&format!(
         "{GOOD}\n[effects]\nshifting = {{ coefficient = 2.0 }}"
