@@ -714,10 +714,10 @@ sph_core::dim_tests! {
     }
 }
 
-/// A ball of radius 0.3 at rest on a lattice of spacing `scale · dx` whose particles carry the
-/// volume `dx^D` (dx = 0.05): `scale < 1` is a fluid packed closer than its volumes stand for.
-fn ball_at_rest<D: Dim>(scale: f64, relaxation: f64, form: DensityRelaxationForm) -> Simulation<D> {
-    let dx = 0.05;
+/// The lattice points (spacing `dx`) of a ball of radius 0.3 about the origin, each moved by a
+/// uniform random offset of up to `jitter · dx` per axis (none for `jitter = 0`).
+fn ball_lattice<D: Dim>(dx: f64, jitter: f64) -> Vec<D::Vector> {
+    let mut rng = sph_core::testing::SplitMix64::new(7);
     let n = 7i64;
     let mut pts = Vec::new();
     let zr = if D::DIM == 3 { n } else { 0 };
@@ -727,11 +727,27 @@ fn ball_at_rest<D: Dim>(scale: f64, relaxation: f64, form: DensityRelaxationForm
                 let idx = [i, j, k];
                 let x = D::Vector::from_fn(|c| idx[c] as f64 * dx);
                 if x.length() <= 0.3 {
-                    pts.push(x * scale);
+                    let offset = if jitter > 0.0 {
+                        rng.vector::<D>(-jitter * dx, jitter * dx)
+                    } else {
+                        D::Vector::ZERO
+                    };
+                    pts.push(x + offset);
                 }
             }
         }
     }
+    pts
+}
+
+/// A ball of radius 0.3 at rest on a lattice of spacing `scale · dx` whose particles carry the
+/// volume `dx^D` (dx = 0.05): `scale < 1` is a fluid packed closer than its volumes stand for.
+fn ball_at_rest<D: Dim>(scale: f64, relaxation: f64, form: DensityRelaxationForm) -> Simulation<D> {
+    let dx = 0.05;
+    let pts = ball_lattice::<D>(dx, 0.0)
+        .into_iter()
+        .map(|x| x * scale)
+        .collect();
     let p = ParticleSet::<D>::from_positions(pts, dx.powi(D::DIM as i32), 1.0);
     let mut cfg = SimConfig::new(KernelKind::WendlandC2, 1.3 * dx);
     cfg.free_surface = Some(FreeSurface::default_for(D::DIM));
@@ -1159,21 +1175,7 @@ sph_core::dim_tests! {
     /// scheme), and the two differ in the core, where the particles are slow.
     fn tension_scale_is_the_largest_speed_where_the_pressure_is_negative<D>() {
         let dx = 0.05;
-        let mut rng = sph_core::testing::SplitMix64::new(7);
-        let mut pts = Vec::new();
-        let n = 7i64;
-        let zr = if D::DIM == 3 { n } else { 0 };
-        for k in -zr..=zr {
-            for j in -n..=n {
-                for i in -n..=n {
-                    let idx = [i, j, k];
-                    let x = D::Vector::from_fn(|c| idx[c] as f64 * dx);
-                    if x.length() <= 0.3 {
-                        pts.push(x + rng.vector::<D>(-0.1 * dx, 0.1 * dx));
-                    }
-                }
-            }
-        }
+        let pts = ball_lattice::<D>(dx, 0.1);
         let mut p = ParticleSet::<D>::from_positions(pts, dx.powi(D::DIM as i32), 1.0);
         for (u, x) in p.velocities.iter_mut().zip(&p.positions) {
             *u = D::Vector::from_fn(|c| match c {

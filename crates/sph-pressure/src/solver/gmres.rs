@@ -144,8 +144,9 @@ impl Krylov for Gmres {
                 });
             }
             if iterations >= params.max_iterations {
-                // A residual at the round-off floor meets the tolerance as a backward error.
-                if a.backward_error(x, &mut self.z) <= params.rel_tolerance {
+                // A residual at the round-off floor meets the tolerance as a backward error
+                // (below `‖b‖`: see `CsrSystem::accepts`).
+                if beta < bnorm && a.backward_error(x, &mut self.z) <= params.rel_tolerance {
                     return Ok(SolveInfo {
                         iterations,
                         rel_residual: beta / bnorm,

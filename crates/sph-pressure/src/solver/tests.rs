@@ -1140,3 +1140,87 @@ sph_core::dim_tests! {
         assert!(tested.iter().all(|&t| t >= 3 * (D::DIM - 1)), "rows tested: {tested:?}");
     }
 }
+
+/// The backward error of a run-away iterate is measured, not lost to overflow: scaling `x` and
+/// `b` of the hand-computed 2 × 2 system by 1e160 (its squares overflow `f64`) leaves it
+/// unchanged, where summing unscaled squares read `‖ |A| |x| ‖₂ = ∞` and a backward error of 0.
+#[test]
+fn backward_error_of_a_huge_iterate_does_not_overflow() {
+    let offsets = [0usize, 2, 3];
+    let cols = [0u32, 1, 1];
+    let values = [2.0, 1.0, 3.0];
+    let mut scratch = vec![0.0; 2];
+    let eta = |s: f64, scratch: &mut [f64]| {
+        let rhs = [3.0 * s, 4.0 * s];
+        let sys = CsrSystem {
+            offsets: &offsets,
+            cols: &cols,
+            values: &values,
+            rhs: &rhs,
+            border: None,
+        };
+        sys.backward_error(&[s, s], scratch)
+    };
+    let (plain, huge) = (eta(1.0, &mut scratch), eta(1e160, &mut scratch));
+    let expected = 1.0 / (18.0f64.sqrt() + 5.0);
+    assert!(
+        (plain - expected).abs() < 1e-15,
+        "{plain} against {expected}"
+    );
+    assert!((huge - expected).abs() < 1e-15, "{huge} against {expected}");
+}
+
+/// A solve is not accepted with a residual larger than `‖b‖`, however small its backward
+/// error: an iterate grown along a (nearly) singular direction of `A` — here the null space of
+/// `[[1, −1], [−1, 1]]`, `x = 1e152 (1, 1)`, so `A x = 0` and `r = b` — has a backward error
+/// near 1e-152, and is worse than `x = 0`. The round-off floor the backward error admits
+/// (a small residual against large terms) is still accepted.
+#[test]
+fn a_run_away_iterate_is_not_accepted_as_a_backward_error() {
+    let offsets = [0usize, 2, 4];
+    let cols = [0u32, 1, 0, 1];
+    let values = [1.0, -1.0, -1.0, 1.0];
+    let rhs = [1.0, -1.0];
+    let sys = CsrSystem {
+        offsets: &offsets,
+        cols: &cols,
+        values: &values,
+        rhs: &rhs,
+        border: None,
+    };
+    let mut scratch = vec![0.0; 2];
+    let x = [1e152, 1e152];
+    let rel = sys.rel_residual(&x, &mut scratch);
+    assert_eq!(rel, 1.0);
+    let eta = sys.backward_error(&x, &mut scratch);
+    assert!(eta < 1e-150, "{eta}");
+    assert!(!sys.accepts(&x, rel, 1e-9, &mut scratch));
+    // x = (1e8 + 0.5, 1e8 − 0.5) off by 1e-7 (a few units in the last place): a relative
+    // residual near 1e-7 at terms of 1e8 (backward error near 1e-16) is accepted at a
+    // tolerance of 1e-12.
+    let x = [1e8 + 0.5 + 1e-7, 1e8 - 0.5];
+    let rel = sys.rel_residual(&x, &mut scratch);
+    assert!(rel > 1e-11 && rel < 1.0, "{rel}");
+    assert!(sys.accepts(&x, rel, 1e-12, &mut scratch));
+}
+
+sph_core::dim_tests! {
+    /// A warm start the iteration cannot recover from (here not finite: the iteration breaks
+    /// down at once) is tried again from zero, and the solve then succeeds, the iterations of
+    /// both attempts counted; a cold start that fails is reported as before.
+    fn a_failed_warm_start_is_retried_from_zero<D>() {
+        let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
+        let m = fx.ppe();
+        let (_, b) = manufactured(&fx, &m);
+        let sys = CsrSystem { offsets: fx.nl.offsets(), cols: fx.nl.indices(), values: &m.values, rhs: &b, border: None };
+        for kind in [SolverKind::BicgstabJacobi, SolverKind::BicgstabAmg, SolverKind::GmresAmg] {
+            let mut cold = vec![0.0; b.len()];
+            let reference = AnySolver::new(kind).solve(&sys, &mut cold, &SolveParams::default()).unwrap();
+            let mut x = vec![f64::NAN; b.len()];
+            let info = AnySolver::new(kind).solve(&sys, &mut x, &SolveParams::default()).unwrap();
+            assert_eq!(x, cold, "{kind:?}: the retry is the cold solve");
+            assert!(info.iterations >= reference.iterations, "{kind:?}: {info:?} against {reference:?}");
+            assert!(info.rel_residual <= 10.0 * SolveParams::default().rel_tolerance, "{kind:?}: {info:?}");
+        }
+    }
+}
