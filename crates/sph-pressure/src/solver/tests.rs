@@ -1206,8 +1206,9 @@ fn a_run_away_iterate_is_not_accepted_as_a_backward_error() {
 
 sph_core::dim_tests! {
     /// A warm start the iteration cannot recover from (here not finite: the iteration breaks
-    /// down at once) is tried again from zero, and the solve then succeeds, the iterations of
-    /// both attempts counted; a cold start that fails is reported as before.
+    /// down at once) is tried again from zero, and the solve then succeeds; a warm start that
+    /// fails by its iteration cap is retried too and reports both attempts' iterations (a cold
+    /// start that fails is reported at once: `non_convergence_and_bad_pivots_are_errors`).
     fn a_failed_warm_start_is_retried_from_zero<D>() {
         let fx = Fixture::<D>::new(if D::DIM == 2 { 30 } else { 12 });
         let m = fx.ppe();
@@ -1221,6 +1222,14 @@ sph_core::dim_tests! {
             assert_eq!(x, cold, "{kind:?}: the retry is the cold solve");
             assert!(info.iterations >= reference.iterations, "{kind:?}: {info:?} against {reference:?}");
             assert!(info.rel_residual <= 10.0 * SolveParams::default().rel_tolerance, "{kind:?}: {info:?}");
+        }
+        let mut x = vec![1.0; b.len()];
+        let err = BiCgStab::new(Preconditioner::Jacobi)
+            .solve(&sys, &mut x, &SolveParams { rel_tolerance: 1e-12, max_iterations: 2 })
+            .unwrap_err();
+        match err {
+            crate::SolveError::NoConvergence { iterations, .. } => assert_eq!(iterations, 4),
+            e => panic!("expected NoConvergence, got {e:?}"),
         }
     }
 }
