@@ -367,6 +367,20 @@ fn cases() -> Vec<Case> {
             "effects.viscosity.nu",
         ),
         (
+            "hyperviscosity negative",
+            TANK,
+            "gravity = [0.0, -9.81, 0.0]\n",
+            "gravity = [0.0, -9.81, 0.0]\nhyperviscosity = { speed = -0.1 }\n",
+            "effects.hyperviscosity.speed",
+        ),
+        (
+            "hyperviscosity unknown key",
+            TANK,
+            "gravity = [0.0, -9.81, 0.0]\n",
+            "gravity = [0.0, -9.81, 0.0]\nhyperviscosity = { nu4 = 1e-6 }\n",
+            "nu4",
+        ),
+        (
             "shifting 0",
             CAVITY,
             "coefficient = 2.0",

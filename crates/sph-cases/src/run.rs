@@ -501,6 +501,14 @@ pub fn run_scheme<D: Dim>(
         (fx.viscosity.map_or(0.0, |v| v.nu), g)
     };
     let h = sim.config().h;
+    // The hyperviscous term's limit `Δt ≤ 1/(ν₄ λ²)` as the viscosity whose limit it is.
+    let nu = nu
+        + match (auto, sim.config().effects.hyperviscosity) {
+            (Some(a), Some(hv)) => {
+                a.viscous * h * h * hv.rate::<D, _>(sim.kernel(), scene.dx.powi(D::DIM as i32))
+            }
+            _ => 0.0,
+        };
     if control.resume.is_none() {
         settle(scene, &mut case, &mut sim, &mut integrator)?;
     }

@@ -34,9 +34,9 @@ use crate::blocks::{
 };
 use serde::{Deserialize, Serialize};
 use sph_integrators::{
-    AutoTimeStep, DensityRelaxationForm, Diagnostics, DtBound, Effects, FreeSurface, Limits,
-    PeriodicAxes, SchemeKind, ShiftScale, ShiftVelocity, Shifting, SimConfig, Viscosity,
-    ViscousOperator, WallCondition,
+    AutoTimeStep, DensityRelaxationForm, Diagnostics, DtBound, Effects, FreeSurface,
+    Hyperviscosity, Limits, PeriodicAxes, SchemeKind, ShiftScale, ShiftVelocity, Shifting,
+    SimConfig, Viscosity, ViscousOperator, WallCondition,
 };
 use sph_kernels::KernelKind;
 use sph_operators::HessianForm;
@@ -205,6 +205,9 @@ pub struct EffectsSpec {
     pub gravity: Option<[f64; 3]>,
     /// Particle shifting `{ coefficient = 2.0 }`.
     pub shifting: Option<ShiftingSpec>,
+    /// Particle-scale dissipation `{ speed = C }`: hyperviscosity with `ν₄ = C h³`
+    /// ([`Hyperviscosity`]).
+    pub hyperviscosity: Option<Hyperviscosity>,
 }
 
 /// DG Hessian choice in a scene (`"eq25"` or `"quadratic_fit"`).
@@ -587,6 +590,7 @@ impl Scene {
                 }),
                 spacing: self.dx,
             }),
+            hyperviscosity: self.effects.hyperviscosity,
         };
         config.diagnostics = self.diagnostics();
         config.periodic = self.periodic_axes();
@@ -1154,6 +1158,14 @@ impl Validator<'_> {
             && !(v.nu.is_finite() && v.nu >= 0.0)
         {
             return self.bad("effects.viscosity.nu", format!("must be ≥ 0, got {}", v.nu));
+        }
+        if let Some(hv) = s.effects.hyperviscosity
+            && !(hv.speed.is_finite() && hv.speed > 0.0)
+        {
+            return self.bad(
+                "effects.hyperviscosity.speed",
+                format!("must be > 0, got {}", hv.speed),
+            );
         }
         if let Some(g) = s.effects.gravity
             && g.iter().any(|v| !v.is_finite())

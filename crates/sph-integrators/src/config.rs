@@ -45,6 +45,34 @@ impl FreeSurface {
     }
 }
 
+/// Particle-scale dissipation: `u* += Δt a`, `a` the hyperviscous acceleration of
+/// [`hyperviscous_acceleration`](sph_operators::hyperviscous_acceleration) at `xⁿ` with
+/// `ν₄ = speed · h³` (zero for every linear field, a damping rate `∝ ν₄ k⁶ h²` on a smooth mode
+/// of wavenumber `k`, `∝ speed/h` on the particle scale). Not in the paper.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Hyperviscosity {
+    /// The speed `C` in `ν₄ = C h³` (m/s).
+    pub speed: f64,
+}
+
+impl Hyperviscosity {
+    /// `ν₄ λ_G²` (1/s), `λ_G` Morris' Laplacian's eigenvalue bound on a perfect lattice of
+    /// particle volume `volume` ([`lattice_laplacian_bound`](sph_operators::lattice_laplacian_bound)):
+    /// the explicit hyperviscous step is kept stable by `Δt ≤ 1/(ν₄ λ_G²)`. The automatic time
+    /// step counts it in its viscous limit as the viscosity `C_ν h² ν₄ λ_G²` (whose limit is
+    /// this one).
+    pub fn rate<D: sph_core::Dim, K: sph_kernels::Kernel<D>>(
+        &self,
+        kernel: &K,
+        volume: f64,
+    ) -> f64 {
+        let h = kernel.h();
+        let bound = sph_operators::lattice_laplacian_bound::<D, K>(kernel, volume);
+        self.speed * h.powi(3) * bound * bound
+    }
+}
+
 /// Laminar viscosity (Morris et al. 1997): `u* += Δt ν ∇²uⁿ`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -159,6 +187,8 @@ pub struct Effects {
     pub gravity: Option<[f64; 3]>,
     /// Particle shifting.
     pub shifting: Option<Shifting>,
+    /// Particle-scale dissipation.
+    pub hyperviscosity: Option<Hyperviscosity>,
 }
 
 /// Per-step diagnostics: measurements of a step that the step itself does not need. Each one

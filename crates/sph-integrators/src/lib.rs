@@ -33,8 +33,8 @@ mod walls;
 
 pub use checkpoint::{Checkpoint, RestoreError};
 pub use config::{
-    DensityRelaxationForm, Diagnostics, Effects, FreeSurface, Limits, PeriodicAxes, ShiftScale,
-    ShiftVelocity, Shifting, SimConfig, Viscosity, ViscousOperator,
+    DensityRelaxationForm, Diagnostics, Effects, FreeSurface, Hyperviscosity, Limits, PeriodicAxes,
+    ShiftScale, ShiftVelocity, Shifting, SimConfig, Viscosity, ViscousOperator,
 };
 pub use error::{COLLAPSE_FRACTION, StepError};
 pub use frame::Frame;

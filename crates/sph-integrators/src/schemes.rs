@@ -12,7 +12,8 @@ use serde::{Deserialize, Serialize};
 use sph_core::Dim;
 use sph_core::{ParticleSet, VectorOps};
 use sph_operators::{
-    morris_error_coefficient, shifting_gradients, viscous_acceleration, viscous_correction,
+    hyperviscous_acceleration, morris_error_coefficient, shifting_gradients, viscous_acceleration,
+    viscous_correction,
 };
 use std::time::Instant;
 
@@ -110,7 +111,8 @@ impl<D: Dim> Integrator<D> for Scheme {
 }
 
 /// The explicit part of Algorithms 1 and 2, `u* = uⁿ + Δt (ν∇²uⁿ + f_b)`, on the neighbour
-/// lists of `e` (built at `xⁿ`). Only the declared effects run: without viscosity and gravity
+/// lists of `e` (built at `xⁿ`), plus the hyperviscous term where declared
+/// ([`Hyperviscosity`](crate::Hyperviscosity)). Only the declared effects run: without any
 /// `u* = uⁿ` and no loop is entered. Wall particles keep their prescribed velocity; the viscous
 /// term reads the no-slip wall velocity `2u_w − ũ_w` (see [`WallModel`](crate::WallModel)).
 fn intermediate_velocity<D: Dim>(
@@ -123,7 +125,7 @@ fn intermediate_velocity<D: Dim>(
 ) {
     b.u_star.copy_from_slice(&p.velocities);
     let fx = e.config.effects;
-    if fx.viscosity.is_none() && fx.gravity.is_none() {
+    if fx.viscosity.is_none() && fx.gravity.is_none() && fx.hyperviscosity.is_none() {
         return;
     }
     let nf = e.fluid;
@@ -159,6 +161,15 @@ fn intermediate_velocity<D: Dim>(
                 viscous_correction(&ctx, &p.masses, &p.densities, c, &b.visc_acc, interior, acc);
             }
         }
+        phases.add(Phase::Viscosity, clock);
+    }
+    // After the viscous term, whose corrected form overwrites `acc`.
+    if let Some(hv) = fx.hyperviscosity {
+        let clock = Instant::now();
+        let ctx = engine_context!(e, &p.positions);
+        let nu4 = hv.speed * e.config.h.powi(3);
+        let (grad, lap) = (&mut b.hv_grad, &mut b.hv_lap);
+        hyperviscous_acceleration(&ctx, nu4, &p.velocities, grad, lap, &mut b.acc[..nf]);
         phases.add(Phase::Viscosity, clock);
     }
     if let Some(g) = fx.gravity {
@@ -350,7 +361,9 @@ fn projection_passes<D: Dim>(
     mut phases: PhaseTimes,
 ) -> Result<StepReport, StepError> {
     let (step, t) = (sim.step, sim.t);
-    let viscous = sim.engine.config.effects.viscosity.is_some();
+    let fx = sim.engine.config.effects;
+    // The explicit terms that read the neighbours at xⁿ.
+    let viscous = fx.viscosity.is_some() || fx.hyperviscosity.is_some();
     let det_f_wanted = sim.engine.config.diagnostics.det_f;
     let p = &sim.particles;
     // The explicit forces read the lists at xⁿ (Algorithms 1–2: ν∇²uⁿ).

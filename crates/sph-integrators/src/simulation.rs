@@ -199,6 +199,9 @@ pub(crate) struct Buffers<D: Dim> {
     /// The uncorrected viscous acceleration of every particle (walls: zero), for
     /// [`ViscousOperator::Corrected`](crate::ViscousOperator::Corrected).
     pub(crate) visc_acc: Vec<D::Vector>,
+    /// The hyperviscous term's gradient and first-pass scratch (fluid).
+    pub(crate) hv_grad: Vec<D::Matrix>,
+    pub(crate) hv_lap: Vec<D::Vector>,
     /// Shifting: ∇C and ∇uⁿ⁺¹.
     pub(crate) grad_c: Vec<D::Vector>,
     pub(crate) grad_u: Vec<D::Matrix>,
@@ -289,6 +292,8 @@ impl<D: Dim> Simulation<D> {
             acc: Vec::new(),
             u_visc: Vec::new(),
             visc_acc: Vec::new(),
+            hv_grad: Vec::new(),
+            hv_lap: Vec::new(),
             grad_c: Vec::new(),
             grad_u: Vec::new(),
             u_shift: Vec::new(),
@@ -551,10 +556,14 @@ impl<D: Dim> Simulation<D> {
         b.p_work.resize(n, 0.0);
         b.flags.resize(n, false);
         let fx = &self.engine.config.effects;
-        if fx.viscosity.is_some() || fx.gravity.is_some() {
+        if fx.viscosity.is_some() || fx.gravity.is_some() || fx.hyperviscosity.is_some() {
             b.acc.resize(n, D::Vector::ZERO);
             b.u_visc.resize(n, D::Vector::ZERO);
             b.visc_acc.resize(n, D::Vector::ZERO);
+        }
+        if fx.hyperviscosity.is_some() {
+            b.hv_grad.resize(n, D::Matrix::ZERO);
+            b.hv_lap.resize(n, D::Vector::ZERO);
         }
         if fx.shifting.is_some() {
             b.grad_c.resize(n, D::Vector::ZERO);

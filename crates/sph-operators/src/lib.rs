@@ -30,6 +30,7 @@
 //! | [`free_surface_indicator`] | ∇·r = Σ V_j (x_j − x_i)·∇W_ij | Nair & Tomar 2014 |
 //! | [`free_surface_scan`] | no neighbour in the umbrella region outside `x_i` | Marrone et al. 2010 |
 //! | [`viscous_acceleration`] | Σ m_j (μ_i+μ_j)/(ρ_iρ_j) F_ij (u_i − u_j) (Morris 1997) | Eq. 1 viscous term |
+//! | [`hyperviscous_acceleration`], [`lattice_laplacian_bound`] | −ν₄ L(l), l_i = Σ_j w_ij (u_i − u_j − ½(G_i + G_j) x_ij), w_ij = 2 V_j F_ij: zero for linear fields, ∝ k⁶ on smooth modes | — (particle-scale dissipation) |
 //! | [`viscous_correction`] | a_i − c (L a)_i, c = M₂/(4D) ([`morris_error_coefficient`]): ν∇²u to O(h⁴) | Eq. 1 viscous term, fourth order |
 //!
 //! with `F_ij = x_ij·∇W_ij / (r_ij² + (0.01h)²)` and `x_ij = x_i − x_j`. Optional kernel-gradient
@@ -81,6 +82,7 @@ mod divergence;
 mod free_surface;
 mod gradient;
 mod hessian;
+mod hyperviscosity;
 mod laplacian;
 mod quadratic_fit;
 mod shifting;
@@ -102,6 +104,7 @@ pub use divergence::divergence;
 pub use free_surface::{free_surface_indicator, free_surface_scan};
 pub use gradient::{GradientForm, gradient, lattice_gradient_factor};
 pub use hessian::{HessianForm, hessian, hessian_stencil_eq25, hessian_stencil_eq25_contracted};
+pub use hyperviscosity::{hyperviscous_acceleration, lattice_laplacian_bound};
 pub use laplacian::laplacian;
 pub use quadratic_fit::{QuadraticFitStats, hessian_quadratic_fit, hessian_stencil_fit};
 pub use shifting::{concentration_gradient, shifting_gradients};
