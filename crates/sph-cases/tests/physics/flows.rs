@@ -764,3 +764,61 @@ fn completed_band_rows_bring_a_lattice_tanks_pressure_closer_to_hydrostatic<D>()
     }
 }
 }
+
+sph_core::dim_tests! {
+/// A scene's `[effects] hyperviscosity`, through the path users take: the term runs (its time
+/// is the viscosity pass's), the automatic step's first step is its limit `1/(ν₄ λ_G²)` where
+/// that is below the body-force limit (`ν₄ = C h³`, `λ_G` from
+/// `sph_operators::lattice_laplacian_bound`), and the run (a jittered column collapsing) is the
+/// same to the bit on 1 and 3 threads.
+fn a_declared_hyperviscosity_runs_binds_the_step_and_keeps_the_bits<D>() {
+    let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
+    let h = 1.3 * dx;
+    let c = 1.0;
+    let v = |a: f64, b: f64| point(D::DIM, a, b);
+    let text = format!(
+        "dim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 0.02\nt_end = 0.03\n\
+         schemes = [\"euler\"]\n\
+         [[fluid]]\nshape = \"box\"\nmin = {}\nmax = {}\nhydrostatic = true\njitter = 0.2\n\
+         [[wall]]\nmin = {}\nmax = {}\nopen = [\"+y\"]\n\
+         [free_surface]\n[effects]\ngravity = [0.0, -9.81, 0.0]\nhyperviscosity = {{ speed = {c} }}\n\
+         [output]\nsample_every = 1\n",
+        D::DIM,
+        v(0.0, 0.0),
+        v(0.4, 0.4),
+        v(0.0, 0.0),
+        v(1.2, 0.8),
+    );
+    let scene = parse_scene("column", &text).unwrap();
+    let go = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| crate::support::run(&scene, SchemeKind::Euler))
+    };
+    let (out, sink) = go(1);
+    assert!(out.failure.is_none(), "{:?}", out.failure);
+    let ran = sink.column("seconds_viscosity").iter().skip(1).any(|v| !v.is_nan());
+    assert!(ran, "the hyperviscous term did not run");
+    let kernel = sph_kernels::KernelKind::WendlandC2.build::<D>(h);
+    let bound = sph_operators::lattice_laplacian_bound::<D, _>(&kernel, dx.powi(D::DIM as i32));
+    let limit = 1.0 / (c * h.powi(3) * bound * bound);
+    let force = 0.25 * (h / 9.81f64).sqrt();
+    let (dt, b) = (sink.column("dt"), sink.column("dt_bound"));
+    println!("{}: hyperviscous limit {limit:.4e}, body force {force:.4e}, first step {:.4e}", D::NAME, dt[1]);
+    assert!(limit < force);
+    assert!((dt[1] - limit).abs() <= 1e-12 * limit && b[1] == 2.0, "{} {}", dt[1], b[1]);
+    let explicit: f64 = sink.column("energy_explicit").iter().skip(1).sum();
+    let ke = sink.column("kinetic_energy");
+    println!("{}: explicit energy over the run {explicit:.4e}, kinetic energy at the end {:.4e}", D::NAME, ke[ke.len() - 1]);
+    let (_, sink3) = go(3);
+    let bits = |s: &sph_cases::run::MemorySink| {
+        ["kinetic_energy", "dt", "energy_explicit"]
+            .iter()
+            .flat_map(|c| s.column(c).iter().map(|x| x.to_bits()).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
+    };
+    assert!(bits(&sink) == bits(&sink3), "records differ between 1 and 3 threads");
+}
+}
