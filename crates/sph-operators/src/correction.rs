@@ -40,16 +40,10 @@ pub fn correction_matrices<D: Dim, K: Kernel<D>>(
             ctx.for_each_pair(i, |p| {
                 b += D::Matrix::outer(p.grad_w, -p.x_ij) * ctx.volumes[p.j];
             });
-            let gain = |m: &D::Matrix| {
-                let mut g: f64 = 0.0;
-                for r in 0..D::DIM {
-                    for c in 0..D::DIM {
-                        g = g.max(m.get(r, c).abs());
-                    }
-                }
-                g
-            };
-            match b.try_inverse(min_det).filter(|inv| gain(inv) <= max_gain) {
+            match b
+                .try_inverse(min_det)
+                .filter(|inv| gain::<D>(inv) <= max_gain)
+            {
                 Some(inv) => {
                     *l = inv;
                     0
@@ -62,6 +56,18 @@ pub fn correction_matrices<D: Dim, K: Kernel<D>>(
         })
         .sum();
     CorrectionStats { fallbacks }
+}
+
+/// The largest entry of `m` in magnitude: how much an inverse moment matrix amplifies a
+/// gradient (the `max_gain` test of [`correction_matrices`]).
+pub(crate) fn gain<D: Dim>(m: &D::Matrix) -> f64 {
+    let mut g: f64 = 0.0;
+    for r in 0..D::DIM {
+        for c in 0..D::DIM {
+            g = g.max(m.get(r, c).abs());
+        }
+    }
+    g
 }
 
 /// `L_i ∇W_ij` when corrections are given, else `∇W_ij`.

@@ -2,7 +2,7 @@
 //! part, which damps the particle-scale modes of a projection and leaves resolved flow (and
 //! any linear field, at a free surface too) alone.
 
-use crate::context::{SphContext, gather, laplacian_regulariser};
+use crate::context::{SphContext, gather, laplacian_regulariser, pair_f};
 use sph_core::{Dim, MatrixOps, VectorOps};
 use sph_kernels::Kernel;
 
@@ -65,10 +65,10 @@ pub fn hyperviscous_acceleration<D: Dim, K: Kernel<D>>(
             b += D::Matrix::outer(p.grad_w, -p.x_ij) * v[p.j];
             m += D::Matrix::outer(u[p.j] - u[i], p.grad_w * v[p.j]);
         });
-        let gain_ok = |inv: &D::Matrix| {
-            (0..D::DIM).all(|r| (0..D::DIM).all(|c| inv.get(r, c).abs() <= MAX_GAIN))
-        };
-        match b.try_inverse(MIN_DET).filter(gain_ok) {
+        match b
+            .try_inverse(MIN_DET)
+            .filter(|inv| crate::correction::gain::<D>(inv) <= MAX_GAIN)
+        {
             Some(l) => m * l.transpose(),
             None => m,
         }
@@ -115,15 +115,8 @@ pub fn hyperviscous_acceleration<D: Dim, K: Kernel<D>>(
 /// the explicit step's `Δt · rate` stays below 0.4 there, where stability needs 2; on disordered
 /// particles the bound is not proven.
 pub fn lattice_laplacian_bound<D: Dim, K: Kernel<D>>(kernel: &K, volume: f64) -> f64 {
-    let eta2 = laplacian_regulariser(kernel.h());
     2.0 * crate::density::over_lattice::<D, K>(kernel, volume, |x| {
-        let r = x.length();
-        if r == 0.0 {
-            return 0.0;
-        }
-        let r2 = r * r;
-        let grad = kernel.grad_w(x);
-        (2.0 * volume * x.dot(grad) / (r2 + eta2)).abs()
+        (2.0 * volume * pair_f::<D, K>(kernel, x)).abs()
     })
 }
 

@@ -11,6 +11,19 @@ pub fn run(scene: &Scene, scheme: SchemeKind) -> (SchemeRun, MemorySink) {
     run_with(scene, scheme, RunControl::default())
 }
 
+/// [`run`] on a pool of `threads` threads (for the thread-count independence tests).
+pub fn run_on_threads(
+    scene: &Scene,
+    scheme: SchemeKind,
+    threads: usize,
+) -> (SchemeRun, MemorySink) {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(|| run(scene, scheme))
+}
+
 /// [`run`] with a control (resume, checkpoints).
 pub fn run_with(
     scene: &Scene,
