@@ -492,23 +492,13 @@ pub fn run_scheme<D: Dim>(
     let mut integrator = Scheme::new(scheme);
     // The automatic time step reads the largest fluid speed, ν and |g| each step.
     let auto = scene.auto_time_step();
-    let (nu, gravity) = {
-        let fx = &sim.config().effects;
-        let g = fx.gravity.map_or(0.0, |g| {
-            let g = &g[..D::DIM];
-            g.iter().map(|c| c * c).sum::<f64>().sqrt()
-        });
-        (fx.viscosity.map_or(0.0, |v| v.nu), g)
-    };
+    let gravity = sim.config().effects.gravity.map_or(0.0, |g| {
+        let g = &g[..D::DIM];
+        g.iter().map(|c| c * c).sum::<f64>().sqrt()
+    });
+    // ν, and the hyperviscous term's limit as the viscosity whose limit it is.
+    let nu = auto.map_or(0.0, |a| scene.limit_viscosity(&a));
     let h = sim.config().h;
-    // The hyperviscous term's limit `Δt ≤ 1/(ν₄ λ²)` as the viscosity whose limit it is.
-    let nu = nu
-        + match (auto, sim.config().effects.hyperviscosity) {
-            (Some(a), Some(hv)) => {
-                a.viscous * h * h * hv.rate::<D, _>(sim.kernel(), scene.dx.powi(D::DIM as i32))
-            }
-            _ => 0.0,
-        };
     if control.resume.is_none() {
         settle(scene, &mut case, &mut sim, &mut integrator)?;
     }

@@ -762,7 +762,7 @@ impl Scene {
         match self.auto_time_step() {
             None => (self.dt, None),
             Some(a) => {
-                let nu = self.effects.viscosity.map_or(0.0, |v| v.nu);
+                let nu = self.limit_viscosity(&a);
                 let g = self.effects.gravity.map_or(0.0, |g| {
                     g[..self.dim.min(3)]
                         .iter()
@@ -774,6 +774,26 @@ impl Scene {
                 (dt, Some(b))
             }
         }
+    }
+
+    /// The viscosity whose explicit limit `Δt ≤ C_ν h²/ν` the automatic step `a` keeps: the
+    /// scene's `ν`, plus the hyperviscous term's limit `Δt ≤ 1/(ν₄ λ²)` written as the viscosity
+    /// `C_ν h² ν₄ λ²` with that limit (`λ` the Gershgorin bound of Morris' Laplacian on the
+    /// scene's lattice, [`Hyperviscosity::rate`](sph_integrators::Hyperviscosity::rate)).
+    pub fn limit_viscosity(&self, a: &AutoTimeStep) -> f64 {
+        let nu = self.effects.viscosity.map_or(0.0, |v| v.nu);
+        let Some(hv) = self.effects.hyperviscosity else {
+            return nu;
+        };
+        let h = self.h();
+        let rate = if self.dim == 2 {
+            let k = self.kernel.build::<sph_core::D2>(h);
+            hv.rate::<sph_core::D2, _>(&k, self.dx.powi(2))
+        } else {
+            let k = self.kernel.build::<sph_core::D3>(h);
+            hv.rate::<sph_core::D3, _>(&k, self.dx.powi(3))
+        };
+        nu + a.viscous * h * h * rate
     }
 
     /// Whether `self` may continue a run written under `written` (its checkpoint's scene): the

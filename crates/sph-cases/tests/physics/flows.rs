@@ -763,7 +763,7 @@ sph_core::dim_tests! {
 /// A scene's `[effects] hyperviscosity`, through the path users take: the term runs (its time
 /// is the viscosity pass's), the automatic step's first step is its limit `1/(ν₄ λ_G²)` where
 /// that is below the body-force limit (`ν₄ = C h³`, `λ_G` from
-/// `sph_operators::lattice_laplacian_bound`), and the run (a jittered column collapsing) is the
+/// `sph_operators::lattice_laplacian_bound`), as the scene's `step_bound` says, and the run (a jittered column collapsing) is the
 /// same to the bit on 1 and 3 threads.
 fn a_declared_hyperviscosity_runs_binds_the_step_and_keeps_the_bits<D>() {
     let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
@@ -797,6 +797,10 @@ fn a_declared_hyperviscosity_runs_binds_the_step_and_keeps_the_bits<D>() {
     println!("{}: hyperviscous limit {limit:.4e}, body force {force:.4e}, first step {:.4e}", D::NAME, dt[1]);
     assert!(limit < force);
     assert!((dt[1] - limit).abs() <= 1e-12 * limit && b[1] == 2.0, "{} {}", dt[1], b[1]);
+    // The scene's own bound (what `dgsph` estimates a run's steps from) knows the limit too.
+    let (bound, by) = scene.step_bound();
+    assert!((bound - limit).abs() <= 1e-12 * limit, "step_bound {bound:.4e}, limit {limit:.4e}");
+    assert_eq!(by, Some(sph_integrators::DtBound::Viscous));
     let (_, sink3) = go(3);
     let bits = |s: &sph_cases::run::MemorySink| {
         ["kinetic_energy", "dt", "energy_explicit"]
