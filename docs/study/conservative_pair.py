@@ -377,7 +377,7 @@ def square(surface="hard", dt=4e-3, t_end=2.0):
         s.xf = s.xf + dt * s.u
         t += dt
         k += 1
-        if k % int(round(0.5 / dt)) == 0:
+        if k % int(round(0.25 / dt)) == 0:
             print(f"| {t:.2f} | {0.5 * (s.u ** 2).sum() / ke0 - 1:+.4f} | {flips} |", flush=True)
 
 
