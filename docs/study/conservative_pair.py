@@ -21,7 +21,8 @@ particles with Adami et al. 2012's pressure extrapolation.
     python3 docs/study/conservative_pair.py tank [WALLS]   # still tank, 20 % jitter (dx = 0.05, 5 min)
     python3 docs/study/conservative_pair.py tank0 [WALLS]  # the same without jitter
     python3 docs/study/conservative_pair.py dam [WALLS]    # 4a-tank dam break, a/20 (3 min)
-WALLS: adami (Adami's extrapolated wall pressure, the default), unknown (every wall particle
+WALLS: adami (Adami's extrapolated wall pressure, the default), mirror (mirror ghosts of the
+fluid across the walls' planes, taking their sources' pressures), unknown (every wall particle
 within the fluid's support a pressure unknown: a row of D per wall particle), first_layer (only
 the first wall layer's).
 
@@ -70,7 +71,35 @@ class Particles:
         self.walls = "adami"
 
     # --- neighbours -------------------------------------------------------------------
+    def mirror(self):
+        """Mirror ghosts of the fluid across the walls' planes (self.planes: (axis, position,
+        side) with side +1 when the fluid lies above the plane), corners by double reflection;
+        each ghost takes its source's pressure plus the hydrostatic difference, rho g.(x_g - x_s)."""
+        x, reach = self.xf, 2 * self.h
+        ghosts, src = [], []
+        near = [np.abs(x[:, ax] - pos) < reach for ax, pos, _ in self.planes]
+        for k, (ax, pos, _) in enumerate(self.planes):
+            g = x[near[k]].copy()
+            g[:, ax] = 2 * pos - g[:, ax]
+            ghosts.append(g)
+            src.append(np.nonzero(near[k])[0])
+            for m in range(k + 1, len(self.planes)):
+                ax2, pos2, _ = self.planes[m]
+                if ax2 == ax:
+                    continue
+                both = near[k] & near[m]
+                g = x[both].copy()
+                g[:, ax] = 2 * pos - g[:, ax]
+                g[:, ax2] = 2 * pos2 - g[:, ax2]
+                ghosts.append(g)
+                src.append(np.nonzero(both)[0])
+        self.xw = np.concatenate(ghosts)
+        self.msrc = np.concatenate(src)
+        self.wtree = cKDTree(self.xw)
+
     def pairs(self):
+        if self.walls == "mirror":
+            self.mirror()
         x, h = self.xf, self.h
         tf = cKDTree(x, boxsize=self.box)
         pr = tf.query_pairs(2 * h, output_type="ndarray")
@@ -223,8 +252,13 @@ class Particles:
         Dirichlet p = 0 that cannot raise the energy either."""
         off = np.zeros(G.shape[0])
         wall_unknowns = np.zeros(0, int)
-        if len(self.xw) and self.walls == "adami":
-            E, c = self.adami()
+        if len(self.xw) and self.walls in ("adami", "mirror"):
+            if self.walls == "adami":
+                E, c = self.adami()
+            else:
+                ng = len(self.xw)
+                E = sp.csr_matrix((np.ones(ng), (np.arange(ng), self.msrc)), shape=(ng, len(self.xf)))
+                c = (self.xw - self.xf[self.msrc]) @ self.g
             G = (G + Gw @ E).tocsr()
             off += Gw @ c
         elif len(self.xw):
@@ -398,6 +432,7 @@ def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami"):
                    for j in range(-layers, top) if not (0 <= i < L and j >= 0)])
     s = Particles(xf, xw, dx)
     s.walls = walls
+    s.planes = [(0, 0.0, 1), (0, L * dx, -1), (1, 0.0, 1)]
     # depth of each wall particle below the wall's surface (the fluid's box)
     lo, hi = np.zeros(2), np.array([L * dx, np.inf])
     s.wall_depth = np.maximum(np.maximum(lo - xw, xw - hi), 0).max(1)
