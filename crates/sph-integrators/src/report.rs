@@ -25,6 +25,8 @@ pub enum Phase {
     FreeSurface,
     /// Viscous acceleration (with the walls' no-slip velocity).
     Viscosity,
+    /// Particle-scale dissipation (`[effects] hyperviscosity`).
+    Hyperviscosity,
     /// Body force.
     Gravity,
     /// Wall boundary data: the velocity the projection reads at the wall particles and the
@@ -48,11 +50,12 @@ pub enum Phase {
 
 impl Phase {
     /// Every phase, in the order a step runs them.
-    pub const ALL: [Phase; 13] = [
+    pub const ALL: [Phase; 14] = [
         Phase::Neighbors,
         Phase::Renormalisation,
         Phase::FreeSurface,
         Phase::Viscosity,
+        Phase::Hyperviscosity,
         Phase::Gravity,
         Phase::WallData,
         Phase::Source,
@@ -71,6 +74,7 @@ impl Phase {
             Phase::Renormalisation => "renormalisation",
             Phase::FreeSurface => "free_surface",
             Phase::Viscosity => "viscosity",
+            Phase::Hyperviscosity => "hyperviscosity",
             Phase::Gravity => "gravity",
             Phase::WallData => "wall_data",
             Phase::Source => "source",

@@ -170,7 +170,7 @@ fn intermediate_velocity<D: Dim>(
         let nu4 = hv.speed * e.config.h.powi(3);
         let (grad, lap) = (&mut b.hv_grad, &mut b.hv_lap);
         hyperviscous_acceleration(&ctx, nu4, &p.velocities, grad, lap, &mut b.acc[..nf]);
-        phases.add(Phase::Viscosity, clock);
+        phases.add(Phase::Hyperviscosity, clock);
     }
     if let Some(g) = fx.gravity {
         let clock = Instant::now();

@@ -157,7 +157,7 @@ sph_core::dim_tests! {
         cfg.diagnostics = Diagnostics::default();
         let mut sim = Simulation::new(p, cfg).unwrap();
         let r = Scheme::new(SchemeKind::Dg).step(&mut sim, 1e-4).unwrap();
-        for ph in [Phase::Viscosity, Phase::Gravity, Phase::WallData, Phase::Shifting, Phase::Diagnostics] {
+        for ph in [Phase::Viscosity, Phase::Hyperviscosity, Phase::Gravity, Phase::WallData, Phase::Shifting, Phase::Diagnostics] {
             assert!(!r.phases.ran(ph), "{ph:?} ran");
         }
         for ph in [Phase::Neighbors, Phase::Renormalisation, Phase::FreeSurface, Phase::Source, Phase::Assembly, Phase::Solve, Phase::Correction] {

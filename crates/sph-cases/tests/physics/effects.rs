@@ -23,6 +23,7 @@ fn an_inviscid_drop_runs_no_viscosity_gravity_wall_or_shifting_pass() {
         let (_, sink) = run(&scene, kind);
         for absent in [
             "viscosity",
+            "hyperviscosity",
             "gravity",
             "wall_data",
             "shifting",

@@ -760,8 +760,8 @@ fn completed_band_rows_bring_a_lattice_tanks_pressure_closer_to_hydrostatic<D>()
 }
 
 sph_core::dim_tests! {
-/// A scene's `[effects] hyperviscosity`, through the path users take: the term runs (its time
-/// is the viscosity pass's), the automatic step's first step is its limit `1/(ν₄ λ_G²)` where
+/// A scene's `[effects] hyperviscosity`, through the path users take: the term runs (in its
+/// own pass, and no viscous pass with it), the automatic step's first step is its limit `1/(ν₄ λ_G²)` where
 /// that is below the body-force limit (`ν₄ = C h³`, `λ_G` from
 /// `sph_operators::lattice_laplacian_bound`), as the scene's `step_bound` says, and the run (a jittered column collapsing) is the
 /// same to the bit on 1 and 3 threads.
@@ -787,8 +787,9 @@ fn a_declared_hyperviscosity_runs_binds_the_step_and_keeps_the_bits<D>() {
     let go = |threads: usize| crate::support::run_on_threads(&scene, SchemeKind::Euler, threads);
     let (out, sink) = go(1);
     assert!(out.failure.is_none(), "{:?}", out.failure);
-    let ran = sink.column("seconds_viscosity").iter().skip(1).any(|v| !v.is_nan());
-    assert!(ran, "the hyperviscous term did not run");
+    let ran = |c: &str| sink.column(c).iter().skip(1).any(|v| !v.is_nan());
+    assert!(ran("seconds_hyperviscosity"), "the hyperviscous term did not run");
+    assert!(!ran("seconds_viscosity"), "a viscous pass ran in an inviscid scene");
     let kernel = sph_kernels::KernelKind::WendlandC2.build::<D>(h);
     let bound = sph_operators::lattice_laplacian_bound::<D, _>(&kernel, dx.powi(D::DIM as i32));
     let limit = 1.0 / (c * h.powi(3) * bound * bound);
