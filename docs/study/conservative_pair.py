@@ -18,7 +18,8 @@ particles with Adami et al. 2012's pressure extrapolation.
     python3 docs/study/conservative_pair.py patch    # the patch test (seconds)
     python3 docs/study/conservative_pair.py tg       # Taylor-Green without shifting, 25^2 (2 min)
     python3 docs/study/conservative_pair.py square [hard|smooth] [DT]  # rotating square (30 s)
-    python3 docs/study/conservative_pair.py tank [WALLS]   # still tank, 20 % jitter (dx = 0.05, 5 min)
+    python3 docs/study/conservative_pair.py tank [WALLS [SETTLE [T_END]]]  # still tank, 20 % jitter
+                                        (dx = 0.05; SETTLE damped steps before the clock)
     python3 docs/study/conservative_pair.py tank0 [WALLS]  # the same without jitter
     python3 docs/study/conservative_pair.py dam [WALLS]    # 4a-tank dam break, a/20 (3 min)
 WALLS: adami (Adami's extrapolated wall pressure, the default), mirror (mirror ghosts of the
@@ -415,8 +416,9 @@ def square(surface="hard", dt=4e-3, t_end=2.0):
             print(f"| {t:.2f} | {0.5 * (s.u ** 2).sum() / ke0 - 1:+.4f} | {flips} |", flush=True)
 
 
-def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami"):
-    """The still tank (2 x 1, 20 % jitter, no packing or settling) or the 4a-tank dam break."""
+def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle=0, damping=0.05):
+    """The still tank (2 x 1, 20 % jitter, no packing) or the 4a-tank dam break; `settle` damped
+    steps (u *= 1 - damping after each) before the clock starts."""
     layers = 3
     if case == "tank":
         nx, ny, L, top = int(round(2 / dx)), int(round(1 / dx)), int(round(2 / dx)), int(round(1.5 / dx))
@@ -437,27 +439,40 @@ def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami"):
     lo, hi = np.zeros(2), np.array([L * dx, np.inf])
     s.wall_depth = np.maximum(np.maximum(lo - xw, xw - hi), 0).max(1)
     g = 9.81
-    e0 = g * s.xf[:, 1].sum()
-    t, k, rise, t0 = 0.0, 0, 0.0, time.time()
-    print(f"| t | largest speed / sqrt(gH) | energy - start (of the start) | largest rise | front | outside the walls | free surface | ({case}) |")
-    print("|---|---|---|---|---|---|---|---|")
-    while t < t_end - 1e-12:
+
+    def step():
         s.pairs()
         G, Gw, surf = corrected_operators(s, True)
         # the free-surface particles hold the weight of the half spacing above them
         pd = np.where(surf, 0.5 * dx * np.maximum(0.0, -(s.n @ s.g)), 0.0)
-        s.u, p = s.project(s.u + dt * s.g, dt, G, Gw, surf, pd)
+        s.u, _ = s.project(s.u + dt * s.g, dt, G, Gw, surf, pd)
         s.xf = s.xf + dt * s.u
+        return surf
+
+    for _ in range(settle):
+        step()
+        s.u *= 1.0 - damping
+    e0 = g * s.xf[:, 1].sum() + 0.5 * (s.u ** 2).sum()
+    t, k, rise, t0 = 0.0, 0, 0.0, time.time()
+    settled = 0.0
+    print(f"| t | largest speed / sqrt(gH) | energy - start (of the start) | largest rise | front | outside the walls | free surface | ({case}) |")
+    print("|---|---|---|---|---|---|---|---|")
+    while t < t_end - 1e-12:
+        surf = step()
         t += dt
         k += 1
         e = 0.5 * (s.u ** 2).sum() + g * s.xf[:, 1].sum()
         rise = max(rise, (e - e0) / e0)
+        if t * np.sqrt(g / H) >= 20:
+            settled = max(settled, np.linalg.norm(s.u, axis=1).max() / np.sqrt(g * H))
         if k % int(round(0.2 / dt)) == 0 or not np.isfinite(e):
             out = ((s.xf[:, 0] < 0) | (s.xf[:, 1] < 0) | (s.xf[:, 0] > L * dx)).sum()
             um = np.linalg.norm(s.u, axis=1).max() / np.sqrt(g * H)
             print(f"| {t:.2f} | {um:.4f} | {(e - e0) / e0:+.2e} | {rise:+.1e} | {s.xf[:, 0].max():.3f} | {out} | {surf.sum()} | {time.time() - t0:.0f} s |", flush=True)
             if not np.isfinite(e):
                 break
+    if t * np.sqrt(g / H) >= 20:
+        print(f"largest speed from t sqrt(g/H) = 20 on: {settled:.4f} sqrt(gH)")
 
 
 if __name__ == "__main__":
@@ -472,4 +487,6 @@ if __name__ == "__main__":
             taylor_green(pair="renormalised", t_end=0.5)
     else:
         walls = sys.argv[2] if len(sys.argv) > 2 else "adami"
-        walled(what.rstrip("0"), walls=walls, jitter=0.0 if what.endswith("0") else 0.2)
+        settle = int(sys.argv[3]) if len(sys.argv) > 3 else 0
+        t_end = float(sys.argv[4]) if len(sys.argv) > 4 else None
+        walled(what.rstrip("0"), walls=walls, jitter=0.0 if what.endswith("0") else 0.2, settle=settle, t_end=t_end)
