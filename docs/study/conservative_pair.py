@@ -17,11 +17,13 @@ particles with Adami et al. 2012's pressure extrapolation.
 
     python3 docs/study/conservative_pair.py patch    # the patch test (seconds)
     python3 docs/study/conservative_pair.py tg       # Taylor-Green without shifting, 25^2 (2 min)
-    python3 docs/study/conservative_pair.py square [hard|smooth] [DT]  # rotating square (30 s)
+    python3 docs/study/conservative_pair.py square [hard|hysteresis|smooth] [DT]  # rotating square (30 s)
     python3 docs/study/conservative_pair.py tank [WALLS [SETTLE [T_END]]]  # still tank, 20 % jitter
                                         (dx = 0.05; SETTLE damped steps before the clock)
     python3 docs/study/conservative_pair.py tank0 [WALLS]  # the same without jitter
     python3 docs/study/conservative_pair.py dam [WALLS]    # 4a-tank dam break, a/20 (3 min)
+    (htank, htank0, hdam: the same with the surface flags' hysteresis: a flagged particle stays
+    flagged until div r > 1.9)
 WALLS: adami (Adami's extrapolated wall pressure, the default), mirror (mirror ghosts of the
 fluid across the walls' planes, taking their sources' pressures), unknown (every wall particle
 within the fluid's support a pressure unknown: a row of D per wall particle), first_layer (only
@@ -401,8 +403,13 @@ def square(surface="hard", dt=4e-3, t_end=2.0):
     print("|---|---|---|---|")
     while t < t_end - 1e-12:
         s.pairs()
-        if surface == "hard":
-            G, Gw, surf = corrected_operators(s, True)
+        if surface in ("hard", "hysteresis"):
+            surf = s.free_surface()
+            if surface == "hysteresis" and prev is not None:
+                # a flagged particle stays flagged until its support is nearly full
+                surf = surf | (prev & (s.divr < 1.9))
+            AF, AW = s.corrected_pair(zeroth=~surf, first=np.ones(len(xf), bool))
+            G, Gw = s.gradient(AF, AW)
             flips += 0 if prev is None else int((surf != prev).sum())
             prev = surf
             s.u, _ = s.project(s.u, dt, G, Gw, surf, np.zeros(len(xf)))
@@ -416,7 +423,7 @@ def square(surface="hard", dt=4e-3, t_end=2.0):
             print(f"| {t:.2f} | {0.5 * (s.u ** 2).sum() / ke0 - 1:+.4f} | {flips} |", flush=True)
 
 
-def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle=0, damping=0.05):
+def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle=0, damping=0.05, hysteresis=False):
     """The still tank (2 x 1, 20 % jitter, no packing) or the 4a-tank dam break; `settle` damped
     steps (u *= 1 - damping after each) before the clock starts."""
     layers = 3
@@ -440,9 +447,16 @@ def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle
     s.wall_depth = np.maximum(np.maximum(lo - xw, xw - hi), 0).max(1)
     g = 9.81
 
+    prev = [None]
+
     def step():
         s.pairs()
-        G, Gw, surf = corrected_operators(s, True)
+        surf = s.free_surface()
+        if hysteresis and prev[0] is not None:
+            surf = surf | (prev[0] & (s.divr < 1.9))
+        prev[0] = surf
+        AF, AW = s.corrected_pair(zeroth=~surf, first=np.ones(len(s.xf), bool))
+        G, Gw = s.gradient(AF, AW)
         # the free-surface particles hold the weight of the half spacing above them
         pd = np.where(surf, 0.5 * dx * np.maximum(0.0, -(s.n @ s.g)), 0.0)
         s.u, _ = s.project(s.u + dt * s.g, dt, G, Gw, surf, pd)
@@ -480,7 +494,8 @@ if __name__ == "__main__":
     if what == "patch":
         patch()
     elif what == "square":
-        square(sys.argv[2] if len(sys.argv) > 2 else "hard", float(sys.argv[3]) if len(sys.argv) > 3 else 4e-3)
+        square(sys.argv[2] if len(sys.argv) > 2 else "hard", float(sys.argv[3]) if len(sys.argv) > 3 else 4e-3,
+               float(sys.argv[4]) if len(sys.argv) > 4 else 2.0)
     elif what == "tg":
         taylor_green(*(float(a) if "." in a or "e" in a else int(a) for a in sys.argv[2:4]))
         if len(sys.argv) <= 2:
@@ -489,4 +504,6 @@ if __name__ == "__main__":
         walls = sys.argv[2] if len(sys.argv) > 2 else "adami"
         settle = int(sys.argv[3]) if len(sys.argv) > 3 else 0
         t_end = float(sys.argv[4]) if len(sys.argv) > 4 else None
-        walled(what.rstrip("0"), walls=walls, jitter=0.0 if what.endswith("0") else 0.2, settle=settle, t_end=t_end)
+        hyst = what.startswith("h")
+        case = what.lstrip("h").rstrip("0")
+        walled(case, walls=walls, jitter=0.0 if what.endswith("0") else 0.2, settle=settle, t_end=t_end, hysteresis=hyst)
