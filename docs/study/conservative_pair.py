@@ -423,7 +423,7 @@ def square(surface="hard", dt=4e-3, t_end=2.0):
             print(f"| {t:.2f} | {0.5 * (s.u ** 2).sum() / ke0 - 1:+.4f} | {flips} |", flush=True)
 
 
-def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle=0, damping=0.05, hysteresis=False):
+def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle=0, damping=0.05, hysteresis=False, level=True):
     """The still tank (2 x 1, 20 % jitter, no packing) or the 4a-tank dam break; `settle` damped
     steps (u *= 1 - damping after each) before the clock starts."""
     layers = 3
@@ -458,7 +458,7 @@ def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle
         AF, AW = s.corrected_pair(zeroth=~surf, first=np.ones(len(s.xf), bool))
         G, Gw = s.gradient(AF, AW)
         # the free-surface particles hold the weight of the half spacing above them
-        pd = np.where(surf, 0.5 * dx * np.maximum(0.0, -(s.n @ s.g)), 0.0)
+        pd = np.where(surf, 0.5 * dx * np.maximum(0.0, -(s.n @ s.g)), 0.0) if level else np.zeros(len(s.xf))
         s.u, _ = s.project(s.u + dt * s.g, dt, G, Gw, surf, pd)
         s.xf = s.xf + dt * s.u
         return surf
