@@ -17,7 +17,7 @@ particles with Adami et al. 2012's pressure extrapolation.
 
     python3 docs/study/conservative_pair.py patch    # the patch test (seconds)
     python3 docs/study/conservative_pair.py tg       # Taylor-Green without shifting, 25^2 (2 min)
-    python3 docs/study/conservative_pair.py square [hard|hysteresis|smooth] [DT]  # rotating square (30 s)
+    python3 docs/study/conservative_pair.py square [hard|hysteresis|smooth] [DT [T_END]]  # rotating square
     python3 docs/study/conservative_pair.py tank [WALLS [SETTLE [T_END]]]  # still tank, 20 % jitter
                                         (dx = 0.05; SETTLE damped steps before the clock)
     python3 docs/study/conservative_pair.py tank0 [WALLS]  # the same without jitter
