@@ -273,7 +273,18 @@ class Particles:
             wall_unknowns = used
         unknown = np.nonzero(~dirichlet)[0]
         off += G[:, np.nonzero(dirichlet)[0]] @ p_dirichlet[dirichlet]
-        Gu = sp.hstack([G[:, unknown], Gw[:, wall_unknowns]]).tocsr()
+        cols = [G[:, unknown], Gw[:, wall_unknowns]]
+        if getattr(self, "contact", False):
+            # no-penetration: a particle within dx/2 of a wall's plane and moving into it gets a
+            # multiplier along the plane's normal (its normal velocity set to 0; still a
+            # projection onto the intersection of two kernels, so still orthogonal)
+            us0 = (ustar.ravel() - dt * off).reshape(-1, 2)
+            for ax, pos, side in self.planes:
+                d = side * (self.xf[:, ax] - pos)
+                k = np.nonzero((d < 0.5 * self.dx) & (side * us0[:, ax] < 0))[0]
+                if len(k):
+                    cols.append(sp.csr_matrix((np.ones(len(k)), (2 * k + ax, np.arange(len(k)))), shape=(G.shape[0], len(k))))
+        Gu = sp.hstack(cols).tocsr()
         us = ustar.ravel() - dt * off
         A = (Gu.T @ Gu).tocsc()
         reg = peps * A.diagonal().mean() * np.ones(A.shape[0])
@@ -423,7 +434,7 @@ def square(surface="hard", dt=4e-3, t_end=2.0):
             print(f"| {t:.2f} | {0.5 * (s.u ** 2).sum() / ke0 - 1:+.4f} | {flips} |", flush=True)
 
 
-def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle=0, damping=0.05, hysteresis=False, level=True):
+def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle=0, damping=0.05, hysteresis=False, level=True, contact=False):
     """The still tank (2 x 1, 20 % jitter, no packing) or the 4a-tank dam break; `settle` damped
     steps (u *= 1 - damping after each) before the clock starts."""
     layers = 3
@@ -442,6 +453,7 @@ def walled(case, dx=0.05, dt=2e-3, t_end=None, jitter=0.2, walls="adami", settle
     s = Particles(xf, xw, dx)
     s.walls = walls
     s.planes = [(0, 0.0, 1), (0, L * dx, -1), (1, 0.0, 1)]
+    s.contact = contact
     # depth of each wall particle below the wall's surface (the fluid's box)
     lo, hi = np.zeros(2), np.array([L * dx, np.inf])
     s.wall_depth = np.maximum(np.maximum(lo - xw, xw - hi), 0).max(1)
