@@ -558,6 +558,9 @@ impl<D: Dim> Simulation<D> {
         let fx = &self.engine.config.effects;
         if fx.viscosity.is_some() || fx.gravity.is_some() || fx.hyperviscosity.is_some() {
             b.acc.resize(n, D::Vector::ZERO);
+        }
+        // The viscous term's own buffers: not for gravity or hyperviscosity alone.
+        if fx.viscosity.is_some() {
             b.u_visc.resize(n, D::Vector::ZERO);
             b.visc_acc.resize(n, D::Vector::ZERO);
         }
