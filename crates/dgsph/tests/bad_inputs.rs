@@ -374,6 +374,21 @@ fn cases() -> Vec<Case> {
             "effects.hyperviscosity.speed",
         ),
         (
+            "hyperviscosity by pressure, no free surface",
+            TG,
+            "velocity_field = { kind = \"taylor_green\" }\n",
+            "velocity_field = { kind = \"taylor_green\" }\n[effects]\n\
+             hyperviscosity = { speed = 0.3, region = \"positive_pressure\" }\n",
+            "effects.hyperviscosity.region",
+        ),
+        (
+            "hyperviscosity unknown region",
+            TANK,
+            "gravity = [0.0, -9.81, 0.0]\n",
+            "gravity = [0.0, -9.81, 0.0]\nhyperviscosity = { speed = 0.3, region = \"surface\" }\n",
+            "surface",
+        ),
+        (
             "hyperviscosity unknown key",
             TANK,
             "gravity = [0.0, -9.81, 0.0]\n",

@@ -35,8 +35,8 @@ use crate::blocks::{
 use serde::{Deserialize, Serialize};
 use sph_integrators::{
     AutoTimeStep, DensityRelaxationForm, Diagnostics, DtBound, Effects, FreeSurface,
-    Hyperviscosity, Limits, PeriodicAxes, SchemeKind, ShiftScale, ShiftVelocity, Shifting,
-    SimConfig, Viscosity, ViscousOperator, WallCondition,
+    Hyperviscosity, HyperviscousRegion, Limits, PeriodicAxes, SchemeKind, ShiftScale,
+    ShiftVelocity, Shifting, SimConfig, Viscosity, ViscousOperator, WallCondition,
 };
 use sph_kernels::KernelKind;
 use sph_operators::HessianForm;
@@ -1185,6 +1185,15 @@ impl Validator<'_> {
             return self.bad(
                 "effects.hyperviscosity.speed",
                 format!("must be > 0, got {}", hv.speed),
+            );
+        }
+        if let Some(hv) = s.effects.hyperviscosity
+            && hv.region == HyperviscousRegion::PositivePressure
+            && s.free_surface.is_none()
+        {
+            return self.bad(
+                "effects.hyperviscosity.region",
+                "\"positive_pressure\" needs a free surface to fix the pressure's level",
             );
         }
         if let Some(g) = s.effects.gravity

@@ -54,6 +54,24 @@ impl FreeSurface {
 pub struct Hyperviscosity {
     /// The speed `C` in `ν₄ = C h³` (m/s).
     pub speed: f64,
+    /// Where the term acts.
+    #[serde(default)]
+    pub region: HyperviscousRegion,
+}
+
+/// The fluid particles on which [`Hyperviscosity`] acts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HyperviscousRegion {
+    /// Every fluid particle.
+    #[default]
+    Everywhere,
+    /// Only where the particle's pressure from the previous step is positive, `pⁿ_i > 0`: not at
+    /// the free surface (`p = 0`) nor where the fluid is in tension, where the particle-scale
+    /// motion is the tensile instability's and damping it takes the flow's energy (the rotating
+    /// square; docs/hard-cases.md). Meaningful only where the pressure's level is fixed, by a
+    /// free surface.
+    PositivePressure,
 }
 
 impl Hyperviscosity {

@@ -4,8 +4,8 @@ use crate::projection::{Equation, det_f_stats, first_non_finite, prepare, projec
 use crate::report::{Phase, PhaseTimes};
 use crate::simulation::{Buffers, Engine, engine_context};
 use crate::{
-    EnergyBudget, ShiftScale, ShiftVelocity, Shifting, Simulation, StepError, StepReport,
-    ViscousOperator, Walls,
+    EnergyBudget, HyperviscousRegion, ShiftScale, ShiftVelocity, Shifting, Simulation, StepError,
+    StepReport, ViscousOperator, Walls,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -169,7 +169,13 @@ fn intermediate_velocity<D: Dim>(
         let ctx = engine_context!(e, &p.positions);
         let nu4 = hv.speed * e.config.h.powi(3);
         let (grad, lap) = (&mut b.hv_grad, &mut b.hv_lap);
-        hyperviscous_acceleration(&ctx, nu4, &p.velocities, grad, lap, &mut b.acc[..nf]);
+        let pressures = &p.pressures;
+        let active = |i: usize| match hv.region {
+            HyperviscousRegion::Everywhere => true,
+            HyperviscousRegion::PositivePressure => pressures[i] > 0.0,
+        };
+        let acc = &mut b.acc[..nf];
+        hyperviscous_acceleration(&ctx, nu4, &p.velocities, active, grad, lap, acc);
         phases.add(Phase::Hyperviscosity, clock);
     }
     if let Some(g) = fx.gravity {

@@ -723,7 +723,7 @@ sph_core::dim_tests! {
         for kind in SchemeKind::ALL {
             let (p, mut cfg) = drop::<D>();
             cfg.effects = Effects {
-                hyperviscosity: Some(Hyperviscosity { speed: 1.0 }),
+                hyperviscosity: Some(Hyperviscosity { speed: 1.0, region: HyperviscousRegion::Everywhere }),
                 ..Effects::default()
             };
             let mut sim = Simulation::new(p.clone(), cfg.clone()).unwrap();
@@ -736,10 +736,28 @@ sph_core::dim_tests! {
             for u in noisy.velocities.iter_mut() {
                 *u += rng.vector::<D>(-1.0, 1.0);
             }
-            let mut sim = Simulation::new(noisy, cfg).unwrap();
+            let mut sim = Simulation::new(noisy.clone(), cfg.clone()).unwrap();
             let r = Scheme::new(kind).step(&mut sim, 1e-4).unwrap();
             println!("{} {kind:?}: with noise, explicit energy {:.3e}", D::NAME, r.energy.explicit);
             assert!(r.energy.explicit < 0.0, "{kind:?}: {:?}", r.energy);
+            // Acting only where the last pressure is positive: the same step where every
+            // particle's is, no explicit energy where none is.
+            let mut gated = cfg.clone();
+            gated.effects.hyperviscosity = Some(Hyperviscosity { speed: 1.0, region: HyperviscousRegion::PositivePressure });
+            for (p, same) in [(1.0, true), (0.0, false), (-1.0, false)] {
+                let mut set = noisy.clone();
+                set.pressures.fill(p);
+                let mut everywhere = Simulation::new(set.clone(), cfg.clone()).unwrap();
+                let all = Scheme::new(kind).step(&mut everywhere, 1e-4).unwrap();
+                let mut sim = Simulation::new(set, gated.clone()).unwrap();
+                let r = Scheme::new(kind).step(&mut sim, 1e-4).unwrap();
+                if same {
+                    assert_eq!(r.energy.explicit, all.energy.explicit, "{kind:?}: p = {p}");
+                    assert_eq!(sim.particles.velocities, everywhere.particles.velocities, "{kind:?}");
+                } else {
+                    assert_eq!(r.energy.explicit, 0.0, "{kind:?}: p = {p}: {:?}", r.energy);
+                }
+            }
         }
     }
 }

@@ -15,7 +15,10 @@ const MIN_DET: f64 = 1e-3;
 const MAX_GAIN: f64 = 1e3;
 
 /// Hyperviscous acceleration on the first `n = acc.len()` particles (the fluid; pairs with a
-/// particle `j ≥ n`, a wall, are left out), **added** to `acc`:
+/// particle `j ≥ n`, a wall, are left out), **added** to `acc` at the particles `i` where
+/// `active(i)` (the others' entries are left as they are; `l` is computed at every fluid
+/// particle, so an active particle's acceleration does not depend on its neighbours' being
+/// active):
 ///
 /// ```text
 /// a_i  = −ν₄ Σ_j w_ij (l_i − l_j),
@@ -42,6 +45,7 @@ pub fn hyperviscous_acceleration<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     nu4: f64,
     u: &[D::Vector],
+    active: impl Fn(usize) -> bool + Sync,
     grad: &mut [D::Matrix],
     lap: &mut [D::Vector],
     acc: &mut [D::Vector],
@@ -95,6 +99,9 @@ pub fn hyperviscous_acceleration<D: Dim, K: Kernel<D>>(
         .enumerate()
         .with_min_len(crate::context::MIN_LEN)
         .for_each(|(i, a)| {
+            if !active(i) {
+                return;
+            }
             let mut s = D::Vector::ZERO;
             ctx.for_each_pair(i, |p| {
                 if p.j >= n || p.j == i {
@@ -132,7 +139,9 @@ mod tests {
         let mut grad = vec![D::Matrix::ZERO; n];
         let mut lap = vec![D::Vector::ZERO; n];
         let mut acc = vec![D::Vector::ZERO; n];
-        lat.with_ctx(|ctx| hyperviscous_acceleration(ctx, 1.0, u, &mut grad, &mut lap, &mut acc));
+        lat.with_ctx(|ctx| {
+            hyperviscous_acceleration(ctx, 1.0, u, |_| true, &mut grad, &mut lap, &mut acc)
+        });
         acc
     }
 
@@ -189,6 +198,32 @@ mod tests {
             // k h = 0.15 (about 32 particles per wavelength): damped a million times less than the
             // particle scale.
             assert!(last < 1e-6 * grid, "{:e}", last / grid);
+        }
+
+        fn inactive_particles_keep_their_entry_and_active_ones_feel_the_full_term<D>() {
+            // Noise on a jittered block; every other particle inactive, its entry preset.
+            let mut rng = SplitMix64::new(11);
+            let lat = Lattice::<D>::new(KernelKind::WendlandC2, 1.3, 0.2);
+            let n = lat.len();
+            let u: Vec<D::Vector> = (0..n).map(|_| rng.vector::<D>(-1.0, 1.0)).collect();
+            let full = accelerate(&lat, &u);
+            let preset = D::Vector::from_fn(|k| k as f64 + 0.5);
+            let mut acc = vec![preset; n];
+            let (mut grad, mut lap) = (vec![D::Matrix::ZERO; n], vec![D::Vector::ZERO; n]);
+            lat.with_ctx(|ctx| {
+                hyperviscous_acceleration(ctx, 1.0, &u, |i| i % 2 == 0, &mut grad, &mut lap, &mut acc)
+            });
+            let mut felt = 0;
+            for i in 0..n {
+                if i % 2 == 0 {
+                    // Bit for bit the unmasked term, added to the preset entry.
+                    assert_eq!(acc[i], preset + full[i], "particle {i}");
+                    felt += usize::from(full[i].length() > 0.0);
+                } else {
+                    assert_eq!(acc[i], preset, "particle {i}");
+                }
+            }
+            assert!(felt > n / 4, "only {felt} of {n} active particles felt the term");
         }
     }
 }
