@@ -213,6 +213,16 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
     if let Some(s) = scene.effects.shifting {
         effects.push(format!("shifting A = {}", s.coefficient));
     }
+    if let Some(hv) = scene.hyperviscosity() {
+        effects.push(format!(
+            "hyperviscosity C = {:.4} m/s{}",
+            hv.speed,
+            match hv.region {
+                sph_integrators::HyperviscousRegion::Everywhere => "",
+                sph_integrators::HyperviscousRegion::PositivePressure => " where p > 0",
+            }
+        ));
+    }
     if let Some(f) = scene.sim_config().free_surface {
         effects.push(format!(
             "free surface (∇·r < {}{}; p = 0 {})",

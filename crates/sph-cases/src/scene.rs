@@ -380,6 +380,12 @@ impl Estimate {
 /// (`DensityRelaxationForm::Position`). Chosen from the study in docs/hard-cases.md.
 pub const FLOW_DENSITY_RELAXATION: f64 = 0.05;
 
+/// Hyperviscosity of `flow` and `dam_break` scenes with a free surface when `[effects]
+/// hyperviscosity` does not say: the speed `C` (`ν₄ = C h³`) as a fraction of the scene's speed
+/// scale ([`Scene::speed_scale`]), acting where the pressure is positive
+/// ([`HyperviscousRegion::PositivePressure`]). Chosen from the study in docs/hard-cases.md.
+pub const FLOW_HYPERVISCOSITY: f64 = 0.1;
+
 /// Steps between renumberings of the fluid particles in cell order when a scene does not say
 /// (`reorder_every`). The order decays slowly (a cavity's neighbour search slows by a quarter over
 /// thousands of steps); each renumbering costs about one neighbour search and a fresh AMG set-up.
@@ -590,7 +596,7 @@ impl Scene {
                 }),
                 spacing: self.dx,
             }),
-            hyperviscosity: self.effects.hyperviscosity,
+            hyperviscosity: self.hyperviscosity(),
         };
         config.diagnostics = self.diagnostics();
         config.periodic = self.periodic_axes();
@@ -776,13 +782,104 @@ impl Scene {
         }
     }
 
+    /// The hyperviscosity the scene runs with: the declared one (none for `speed = 0`); else,
+    /// in a flow scene with a free surface, `C =` [`FLOW_HYPERVISCOSITY`] × [`Self::speed_scale`]
+    /// where the pressure is positive (docs/physics.md, "Particle-scale dissipation"); else none.
+    pub fn hyperviscosity(&self) -> Option<Hyperviscosity> {
+        match self.effects.hyperviscosity {
+            Some(hv) => (hv.speed > 0.0).then_some(hv),
+            None if self.case.uses_blocks() && self.free_surface.is_some() => {
+                let speed = FLOW_HYPERVISCOSITY * self.speed_scale();
+                (speed > 0.0).then_some(Hyperviscosity {
+                    speed,
+                    region: HyperviscousRegion::PositivePressure,
+                })
+            }
+            None => None,
+        }
+    }
+
+    /// The fluid's speed scale from the scene alone, `U = √(|g| H + U₀²)`: `H` the extent of the
+    /// fluid blocks (their bounding boxes) along gravity, the height its potential energy can turn
+    /// into speed (`√(gH)` for water at rest in a tank, `√(2ga)` for a dam-break column of
+    /// height `2a`, a drop's fall to its pool included), and `U₀` a bound on the initial speeds
+    /// over the blocks' bounding boxes (constant velocity, velocity gradient, rigid rotation,
+    /// Taylor–Green amplitude). 0 for fluid at rest without gravity.
+    pub fn speed_scale(&self) -> f64 {
+        // (Total before validation: any dimension, vectors of any length.)
+        let d = self.dim.min(3);
+        let norm = |v: &[f64]| v.iter().take(d).map(|x| x * x).sum::<f64>().sqrt();
+        let g = self.effects.gravity.map_or([0.0; 3], |g| g);
+        let gn = norm(&g);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut u0: f64 = 0.0;
+        for b in &self.fluid {
+            let (blo, bhi) = block_bounds(b, d);
+            // The box's corners: their extremes along g and their distances from a centre.
+            let corners = (0..1usize << d).map(|m| {
+                let mut c = [0.0; 3];
+                for k in 0..d {
+                    c[k] = if m >> k & 1 == 1 { bhi[k] } else { blo[k] };
+                }
+                c
+            });
+            let centre: Vec<f64> = (0..d).map(|k| 0.5 * (blo[k] + bhi[k])).collect();
+            let reach = |c: &[f64]| {
+                corners
+                    .clone()
+                    .map(|x| {
+                        let r: Vec<f64> = (0..d)
+                            .map(|k| x[k] - c.get(k).copied().unwrap_or(0.0))
+                            .collect();
+                        norm(&r)
+                    })
+                    .fold(0.0, f64::max)
+            };
+            if gn > 0.0 {
+                for x in corners.clone() {
+                    let along = (0..d).map(|k| x[k] * g[k]).sum::<f64>() / gn;
+                    (lo, hi) = (lo.min(along), hi.max(along));
+                }
+            }
+            let mut u = b.velocity.as_deref().map_or(0.0, norm);
+            if let Some(m) = &b.velocity_gradient {
+                // |G (x − c)| is convex in x: its largest value on the box is at a corner.
+                let at = |x: [f64; 3]| {
+                    let r: Vec<f64> = (0..d).map(|k| x[k] - centre[k]).collect();
+                    let gr: Vec<f64> = (0..d)
+                        .map(|i| {
+                            let row = m.get(i).map_or(&[][..], |r| r.as_slice());
+                            (0..d)
+                                .map(|j| row.get(j).copied().unwrap_or(0.0) * r[j])
+                                .sum::<f64>()
+                        })
+                        .collect();
+                    norm(&gr)
+                };
+                u += corners.clone().map(at).fold(0.0, f64::max);
+            }
+            if let Some(f) = &b.velocity_field {
+                u += match f.kind {
+                    crate::blocks::FieldKind::RigidRotation => {
+                        let c = f.center.clone().unwrap_or(centre.clone());
+                        f.omega.unwrap_or(0.0).abs() * reach(&c)
+                    }
+                    crate::blocks::FieldKind::TaylorGreen => f.amplitude.unwrap_or(1.0).abs(),
+                };
+            }
+            u0 = u0.max(u);
+        }
+        let height = if hi > lo { hi - lo } else { 0.0 };
+        (gn * height + u0 * u0).sqrt()
+    }
+
     /// The viscosity whose explicit limit `Δt ≤ C_ν h²/ν` the automatic step `a` keeps: the
     /// scene's `ν`, plus the hyperviscous term's limit `Δt ≤ 1/(ν₄ λ²)` written as the viscosity
     /// `C_ν h² ν₄ λ²` with that limit (`λ` the Gershgorin bound of Morris' Laplacian on the
     /// scene's lattice, [`Hyperviscosity::rate`](sph_integrators::Hyperviscosity::rate)).
     pub fn limit_viscosity(&self, a: &AutoTimeStep) -> f64 {
         let nu = self.effects.viscosity.map_or(0.0, |v| v.nu);
-        let Some(hv) = self.effects.hyperviscosity else {
+        let Some(hv) = self.hyperviscosity() else {
             return nu;
         };
         let h = self.h();
@@ -1180,11 +1277,11 @@ impl Validator<'_> {
             return self.bad("effects.viscosity.nu", format!("must be ≥ 0, got {}", v.nu));
         }
         if let Some(hv) = s.effects.hyperviscosity
-            && !(hv.speed.is_finite() && hv.speed > 0.0)
+            && !(hv.speed.is_finite() && hv.speed >= 0.0)
         {
             return self.bad(
                 "effects.hyperviscosity.speed",
-                format!("must be > 0, got {}", hv.speed),
+                format!("must be ≥ 0 (0: none), got {}", hv.speed),
             );
         }
         if let Some(hv) = s.effects.hyperviscosity

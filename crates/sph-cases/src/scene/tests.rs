@@ -452,3 +452,79 @@ fn flow_scenes_operators_follow_their_boundary() {
     );
     assert_eq!(scale(&c), Some(ShiftScale::Local));
 }
+
+/// The speed scale `√(|g| H + U₀²)` from the blocks, and the flow scenes' default
+/// hyperviscosity that it scales: with a free surface only, declared values kept, `speed = 0`
+/// none.
+#[test]
+fn speed_scale_and_the_default_hyperviscosity() {
+    let tank = Scene::parse("tank", TANK).unwrap();
+    let g = 9.81f64;
+    assert!(
+        (tank.speed_scale() - g.sqrt()).abs() < 1e-12,
+        "{}",
+        tank.speed_scale()
+    );
+    let hv = tank.hyperviscosity().unwrap();
+    assert_eq!(hv.region, HyperviscousRegion::PositivePressure);
+    assert!(
+        (hv.speed - FLOW_HYPERVISCOSITY * g.sqrt()).abs() < 1e-12,
+        "{hv:?}"
+    );
+    assert_eq!(tank.sim_config().effects.hyperviscosity, Some(hv));
+    // A second block 0.5 higher: the fall to the pool counts.
+    let drop = TANK.replace(
+        "[[wall]]",
+        "[[fluid]]\nshape = \"circle\"\ncenter = [1.0, 1.3]\nradius = 0.2\n[[wall]]",
+    );
+    let s = Scene::parse("drop", &drop).unwrap();
+    assert!(
+        (s.speed_scale() - (g * 1.5).sqrt()).abs() < 1e-12,
+        "{}",
+        s.speed_scale()
+    );
+    // Rotation about the block's centre: ω times the farthest corner; gravity along -y only.
+    let spin = TANK.replace(
+        "hydrostatic = true",
+        "velocity_field = { kind = \"rigid_rotation\", omega = 2.0 }",
+    );
+    let s = Scene::parse("spin", &spin).unwrap();
+    let corner = (0.25f64.powi(2) + 0.5f64.powi(2)).sqrt();
+    let want = (g + (2.0 * corner).powi(2)).sqrt();
+    assert!(
+        (s.speed_scale() - want).abs() < 1e-12,
+        "{} {want}",
+        s.speed_scale()
+    );
+    // A velocity gradient: its largest |G (x − c)| over the box, at a corner.
+    let strain = TANK.replace(
+        "hydrostatic = true",
+        "velocity_gradient = [[-100.0, 0.0], [0.0, 100.0]]",
+    );
+    let s = Scene::parse("strain", &strain).unwrap();
+    let want = (g + 25.0f64.powi(2) + 50.0f64.powi(2)).sqrt();
+    assert!(
+        (s.speed_scale() - want).abs() < 1e-9,
+        "{} {want}",
+        s.speed_scale()
+    );
+    // Declared: kept as written; `speed = 0`: none.
+    let declared = TANK.replace(
+        "gravity = [0.0, -9.81, 0.0]",
+        "gravity = [0.0, -9.81, 0.0]\nhyperviscosity = { speed = 0.5 }",
+    );
+    let hv = Scene::parse("d", &declared)
+        .unwrap()
+        .hyperviscosity()
+        .unwrap();
+    assert_eq!((hv.speed, hv.region), (0.5, HyperviscousRegion::Everywhere));
+    let off = declared.replace("speed = 0.5", "speed = 0.0");
+    assert_eq!(Scene::parse("off", &off).unwrap().hyperviscosity(), None);
+    // No free surface, or one of the paper's cases: none.
+    let sealed = TANK.replace("[free_surface]\ndiv_r_threshold = 1.5\n", "");
+    assert_eq!(
+        Scene::parse("sealed", &sealed).unwrap().hyperviscosity(),
+        None
+    );
+    assert_eq!(Scene::parse("d", GOOD).unwrap().hyperviscosity(), None);
+}
