@@ -47,5 +47,5 @@ pub use check::{Check, Criterion};
 pub use error::CaseError;
 pub use scene::{
     CaseKind, CavitySpec, CavityWallModel, DgHessianChoice, EffectsSpec, Estimate,
-    FLOW_DENSITY_RELAXATION, QuickOverrides, Scene, ShiftingSpec,
+    FLOW_DENSITY_RELAXATION, FLOW_HYPERVISCOSITY, QuickOverrides, Scene, ShiftingSpec,
 };
