@@ -472,42 +472,28 @@ fn speed_scale_and_the_default_hyperviscosity() {
         "{hv:?}"
     );
     assert_eq!(tank.sim_config().effects.hyperviscosity, Some(hv));
+    // The speed scale of TANK with `from` replaced by `to`, against `want` within `tol`.
+    let scale_is = |from: &str, to: &str, want: f64, tol: f64| {
+        let s = Scene::parse("variant", &TANK.replace(from, to)).unwrap();
+        let got = s.speed_scale();
+        assert!((got - want).abs() < tol, "{to}: {got} against {want}");
+    };
     // A second block 0.5 higher: the fall to the pool counts.
-    let drop = TANK.replace(
-        "[[wall]]",
-        "[[fluid]]\nshape = \"circle\"\ncenter = [1.0, 1.3]\nradius = 0.2\n[[wall]]",
-    );
-    let s = Scene::parse("drop", &drop).unwrap();
-    assert!(
-        (s.speed_scale() - (g * 1.5).sqrt()).abs() < 1e-12,
-        "{}",
-        s.speed_scale()
-    );
+    let circle = "[[fluid]]\nshape = \"circle\"\ncenter = [1.0, 1.3]\nradius = 0.2\n[[wall]]";
+    scale_is("[[wall]]", circle, (g * 1.5).sqrt(), 1e-12);
     // Rotation about the block's centre: ω times the farthest corner; gravity along -y only.
-    let spin = TANK.replace(
-        "hydrostatic = true",
-        "velocity_field = { kind = \"rigid_rotation\", omega = 2.0 }",
-    );
-    let s = Scene::parse("spin", &spin).unwrap();
     let corner = (0.25f64.powi(2) + 0.5f64.powi(2)).sqrt();
-    let want = (g + (2.0 * corner).powi(2)).sqrt();
-    assert!(
-        (s.speed_scale() - want).abs() < 1e-12,
-        "{} {want}",
-        s.speed_scale()
+    let spin = "velocity_field = { kind = \"rigid_rotation\", omega = 2.0 }";
+    scale_is(
+        "hydrostatic = true",
+        spin,
+        (g + (2.0 * corner).powi(2)).sqrt(),
+        1e-12,
     );
     // A velocity gradient: its largest |G (x − c)| over the box, at a corner.
-    let strain = TANK.replace(
-        "hydrostatic = true",
-        "velocity_gradient = [[-100.0, 0.0], [0.0, 100.0]]",
-    );
-    let s = Scene::parse("strain", &strain).unwrap();
+    let strain = "velocity_gradient = [[-100.0, 0.0], [0.0, 100.0]]";
     let want = (g + 25.0f64.powi(2) + 50.0f64.powi(2)).sqrt();
-    assert!(
-        (s.speed_scale() - want).abs() < 1e-9,
-        "{} {want}",
-        s.speed_scale()
-    );
+    scale_is("hydrostatic = true", strain, want, 1e-9);
     // Declared: kept as written; `speed = 0`: none.
     let declared = TANK.replace(
         "gravity = [0.0, -9.81, 0.0]",
