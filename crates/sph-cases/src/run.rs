@@ -602,15 +602,7 @@ pub fn run_scheme<D: Dim>(
                     });
                     break;
                 }
-                if remaining <= dt * (1.0 + 1e-6) {
-                    (remaining, remaining < dt, true)
-                } else if remaining < 2.0 * dt {
-                    // Two equal steps to the end rather than a full one and a sliver (a
-                    // projection's pressure scales as 1/Δt).
-                    (0.5 * remaining, false, false)
-                } else {
-                    (dt, false, false)
-                }
+                end_step(remaining, dt)
             }
         };
         let report = match case.advance(&mut sim, &mut integrator, dt) {
@@ -858,5 +850,26 @@ impl RunSink for MemorySink {
     fn checkpoint(&mut self, checkpoint: &Checkpoint) -> std::io::Result<()> {
         self.checkpoints.push(checkpoint.clone());
         Ok(())
+    }
+}
+
+/// Steps over which the automatic step spreads what is left of the run: within the last
+/// `END_STEPS` steps it takes equal steps to `t_end` (see `end_step`).
+pub const END_STEPS: usize = 10;
+
+/// The automatic step's length and whether it is the last, with `remaining` to `t_end` and the
+/// limits' step `dt`: `dt` while more than [`END_STEPS`] such steps remain, then
+/// `remaining / n` with `n = ⌈remaining / dt⌉`. A projection's pressure scales as `1/Δt`, so a
+/// last step cut to a sliver (or halved) leaves a pressure transient in the final state; equal
+/// steps change Δt by at most `1/END_STEPS` once the limits are steady.
+fn end_step(remaining: f64, dt: f64) -> (f64, bool, bool) {
+    if remaining <= dt * (1.0 + 1e-6) {
+        return (remaining, false, true);
+    }
+    let n = (remaining / dt).ceil();
+    if n <= END_STEPS as f64 {
+        (remaining / n, false, false)
+    } else {
+        (dt, false, false)
     }
 }

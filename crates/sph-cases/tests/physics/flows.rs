@@ -456,7 +456,7 @@ fn the_automatic_step_is_the_binding_limit<D>() {
     let v = |a: f64, b: f64| point(D::DIM, a, b);
     let text = |extra: &str| {
         format!(
-            "dim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 0.05\nt_end = 0.25\n\
+            "dim = {}\ndx = {dx}\nkernel = \"wendland_c2\"\ndt = 0.05\nt_end = 0.5\n\
              schemes = [\"euler\"]\n\
              [[fluid]]\nshape = \"box\"\nmin = {}\nmax = {}\nhydrostatic = true\n\
              [[wall]]\nmin = {}\nmax = {}\nopen = [\"+y\"]\n\
@@ -485,26 +485,41 @@ fn the_automatic_step_is_the_binding_limit<D>() {
     let go = |threads: usize| crate::support::run_on_threads(&scene, SchemeKind::Euler, threads);
     let (out, sink) = go(1);
     assert!(out.failure.is_none(), "{:?}", out.failure);
-    assert_eq!(out.t, 0.25, "the last step ends at t_end");
+    assert_eq!(out.t, 0.5, "the last step ends at t_end");
     let (dt, bound, speed) = (
         sink.column("dt"),
         sink.column("dt_bound"),
         sink.column("max_speed"),
     );
     assert_eq!((dt[1], bound[1]), (force, 3.0), "the first step, from rest");
-    // The last two steps may split what is left into two halves.
+    // Each step is its binding limit L until at most `END_STEPS` such steps remain; from there
+    // the rest is spread equally, `remaining / ⌈remaining / L⌉`, which is never longer than L
+    // nor shorter than `(m − 1) / m` of it (m the steps left).
+    use sph_cases::run::END_STEPS;
+    let time = sink.column("t");
     let mut advective = 0;
-    for k in 1..dt.len() {
-        assert!(dt[k] <= 0.05, "step {k}: {}", dt[k]);
-        if bound[k] == 1.0 {
-            let limit = sph_integrators::AutoTimeStep::default().advective * h / speed[k - 1];
-            assert!(dt[k] <= limit * (1.0 + 1e-14), "step {k}: {} > {limit}", dt[k]);
-            if k + 2 < dt.len() {
-                assert!((dt[k] - limit).abs() <= 1e-14 * limit, "step {k}: {} ≠ {limit}", dt[k]);
-                advective += 1;
-            }
+    let mut spread = 0;
+    let n = dt.len();
+    for k in 1..n {
+        let limit = match bound[k] {
+            1.0 => sph_integrators::AutoTimeStep::default().advective * h / speed[k - 1],
+            3.0 => force,
+            b => panic!("step {k}: bound {b}"),
+        };
+        assert!(limit < 0.05 && dt[k] <= limit * (1.0 + 1e-14), "step {k}: {} > {limit}", dt[k]);
+        let remaining = 0.5 - time[k - 1];
+        if remaining > END_STEPS as f64 * limit {
+            assert!((dt[k] - limit).abs() <= 1e-14 * limit, "step {k}: {} ≠ {limit}", dt[k]);
+            advective += usize::from(bound[k] == 1.0);
+        } else {
+            let m = (remaining / limit).ceil();
+            let equal = remaining / m;
+            assert!((dt[k] - equal).abs() <= 1e-12 * equal, "step {k}: {} ≠ {equal}", dt[k]);
+            assert!(m == 1.0 || dt[k] >= limit * (m - 1.0) / m, "step {k}");
+            spread += 1;
         }
     }
+    assert!(spread >= END_STEPS / 2, "{spread} steps spread the end");
     assert!(advective >= 5, "the flow accelerates: {advective} advective steps");
     assert!(out.results["dt_min"] < out.results["dt_max"]);
     let (_, sink3) = go(3);
