@@ -384,7 +384,7 @@ pub const FLOW_DENSITY_RELAXATION: f64 = 0.05;
 /// hyperviscosity` does not say: the speed `C` (`ν₄ = C h³`) as a fraction of the scene's speed
 /// scale ([`Scene::speed_scale`]), acting where the pressure is positive
 /// ([`HyperviscousRegion::PositivePressure`]). Chosen from the study in docs/hard-cases.md.
-pub const FLOW_HYPERVISCOSITY: f64 = 0.1;
+pub const FLOW_HYPERVISCOSITY: f64 = 0.2;
 
 /// Steps between renumberings of the fluid particles in cell order when a scene does not say
 /// (`reorder_every`). The order decays slowly (a cavity's neighbour search slows by a quarter over
@@ -874,8 +874,9 @@ impl Scene {
     }
 
     /// The viscosity whose explicit limit `Δt ≤ C_ν h²/ν` the automatic step `a` keeps: the
-    /// scene's `ν`, plus the hyperviscous term's limit `Δt ≤ 1/(ν₄ λ²)` written as the viscosity
-    /// `C_ν h² ν₄ λ²` with that limit (`λ` the Gershgorin bound of Morris' Laplacian on the
+    /// scene's `ν`, plus the hyperviscous term's limit `Δt ≤ K/(ν₄ λ²)` written as the viscosity
+    /// `C_ν h² ν₄ λ² / K` with that limit (`K` =
+    /// [`HYPERVISCOUS_STEP`](sph_integrators::HYPERVISCOUS_STEP)) (`λ` the Gershgorin bound of Morris' Laplacian on the
     /// scene's lattice, [`Hyperviscosity::rate`](sph_integrators::Hyperviscosity::rate)).
     pub fn limit_viscosity(&self, a: &AutoTimeStep) -> f64 {
         let nu = self.effects.viscosity.map_or(0.0, |v| v.nu);
@@ -890,7 +891,7 @@ impl Scene {
             let k = self.kernel.build::<sph_core::D3>(h);
             hv.rate::<sph_core::D3, _>(&k, self.dx.powi(3))
         };
-        nu + a.viscous * h * h * rate
+        nu + a.viscous * h * h * rate / sph_integrators::HYPERVISCOUS_STEP
     }
 
     /// Whether `self` may continue a run written under `written` (its checkpoint's scene): the

@@ -33,9 +33,9 @@ mod walls;
 
 pub use checkpoint::{Checkpoint, RestoreError};
 pub use config::{
-    DensityRelaxationForm, Diagnostics, Effects, FreeSurface, Hyperviscosity, HyperviscousRegion,
-    Limits, PeriodicAxes, ShiftScale, ShiftVelocity, Shifting, SimConfig, Viscosity,
-    ViscousOperator,
+    DensityRelaxationForm, Diagnostics, Effects, FreeSurface, HYPERVISCOUS_STEP, Hyperviscosity,
+    HyperviscousRegion, Limits, PeriodicAxes, ShiftScale, ShiftVelocity, Shifting, SimConfig,
+    Viscosity, ViscousOperator,
 };
 pub use error::{COLLAPSE_FRACTION, StepError};
 pub use frame::Frame;

@@ -448,7 +448,7 @@ sph_core::dim_tests! {
 /// one record per step), never above the scene's `dt`; the last step ends at `t_end`. The same
 /// steps to the bit on 1 and 3 threads; with `auto = false` every step is `dt`. The scene
 /// turns the flow scenes' default hyperviscosity off; with it, the first step is its limit
-/// `Δt = 1/(ν₄ λ²)` ([`Scene::limit_viscosity`](sph_cases::Scene::limit_viscosity)), tighter here
+/// `Δt = K/(ν₄ λ²)` ([`Scene::limit_viscosity`](sph_cases::Scene::limit_viscosity)), tighter here
 /// than the body force's.
 fn the_automatic_step_is_the_binding_limit<D>() {
     let dx = if D::DIM == 2 { 0.05 } else { 0.1 };
@@ -801,7 +801,7 @@ fn completed_band_rows_bring_a_lattice_tanks_pressure_closer_to_hydrostatic<D>()
 
 sph_core::dim_tests! {
 /// A scene's `[effects] hyperviscosity`, through the path users take: the term runs (in its
-/// own pass, and no viscous pass with it), the automatic step's first step is its limit `1/(ν₄ λ_G²)` where
+/// own pass, and no viscous pass with it), the automatic step's first step is its limit `K/(ν₄ λ_G²)` where
 /// that is below the body-force limit (`ν₄ = C h³`, `λ_G` from
 /// `sph_operators::lattice_laplacian_bound`), as the scene's `step_bound` says, and the run (a jittered column collapsing) is the
 /// same to the bit on 1 and 3 threads.
@@ -832,7 +832,7 @@ fn a_declared_hyperviscosity_runs_binds_the_step_and_keeps_the_bits<D>() {
     assert!(!ran("seconds_viscosity"), "a viscous pass ran in an inviscid scene");
     let kernel = sph_kernels::KernelKind::WendlandC2.build::<D>(h);
     let bound = sph_operators::lattice_laplacian_bound::<D, _>(&kernel, dx.powi(D::DIM as i32));
-    let limit = 1.0 / (c * h.powi(3) * bound * bound);
+    let limit = sph_integrators::HYPERVISCOUS_STEP / (c * h.powi(3) * bound * bound);
     let force = 0.25 * (h / 9.81f64).sqrt();
     let (dt, b) = (sink.column("dt"), sink.column("dt_bound"));
     println!("{}: hyperviscous limit {limit:.4e}, body force {force:.4e}, first step {:.4e}", D::NAME, dt[1]);
