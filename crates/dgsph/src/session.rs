@@ -133,6 +133,10 @@ pub struct CheckpointMeta {
     pub scheme: String,
     /// The scene as run (JSON).
     pub scene: Scene,
+    /// What the scene's numerics resolved to in the build that wrote it
+    /// ([`Scene::resolved_numerics`]); absent in checkpoints of builds before it was recorded.
+    #[serde(default)]
+    pub numerics: Option<String>,
 }
 
 /// A valid output-name prefix: letters, digits, `_`, `-`, `.`; not starting with `.`; no path
@@ -205,7 +209,47 @@ fn read_checkpoint(path: &Path, scene: &Scene, scheme: SchemeKind) -> Result<Che
             differs.join(", ")
         )));
     }
-    Ok(c)
+    let numerics = scene.resolved_numerics();
+    match &meta.numerics {
+        Some(n) if *n == numerics => Ok(c),
+        Some(n) => Err(input(anyhow::anyhow!(
+            "checkpoint {} was written by a dgsph that resolves this scene's numerics otherwise \
+             (a default changed: {}); resuming would change the physics mid-run, so run it from \
+             the start",
+            path.display(),
+            first_difference(n, &numerics)
+        ))),
+        None => Err(input(anyhow::anyhow!(
+            "checkpoint {} was written by a dgsph ({}) that did not record its resolved numerics; \
+             the flow scenes' defaults may have changed since, and resuming could change the \
+             physics mid-run, so run it from the start",
+            path.display(),
+            meta.dgsph
+        ))),
+    }
+}
+
+/// Where two resolved-numerics texts first differ: the field of each around it.
+fn first_difference(written: &str, now: &str) -> String {
+    let field = |s: &str, at: usize| -> String {
+        let start = s[..at].rfind([',', '{', ';']).map_or(0, |k| k + 1);
+        let end = s[at..].find([',', '}', ';']).map_or(s.len(), |k| at + k);
+        s[start..end].trim().chars().take(120).collect()
+    };
+    let at = written
+        .char_indices()
+        .zip(now.chars())
+        .find(|((_, a), b)| a != b)
+        .map_or(written.len().min(now.len()), |((k, _), _)| k);
+    let at = (0..=at)
+        .rev()
+        .find(|&k| written.is_char_boundary(k) && now.is_char_boundary(k))
+        .unwrap_or(0);
+    format!(
+        "written \"{}\", now \"{}\"",
+        field(written, at),
+        field(now, at)
+    )
 }
 
 fn phases(run: &SchemeRun) -> std::collections::BTreeMap<String, PhaseRecord> {
@@ -461,6 +505,7 @@ pub fn run_scene(
             case: scene.case.name().to_string(),
             scheme: scheme.name().to_string(),
             scene: scene.clone(),
+            numerics: Some(scene.resolved_numerics()),
         };
         let meta_json = serde_json::to_string(&meta)
             .context("recording the scene")

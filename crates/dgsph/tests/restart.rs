@@ -320,3 +320,76 @@ fn damaged_or_foreign_checkpoints_are_refused() {
     assert!(text(&o).contains("no checkpoint"), "{}", text(&o));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A checkpoint records what its build resolved the scene's numerics to (a flow scene's
+/// defaults: here the hyperviscosity and the automatic step it binds), and a run resumes only
+/// where this build resolves the same: a checkpoint whose record says otherwise (a default
+/// changed between builds) or says nothing (written before the record existed) is refused with
+/// exit 2, naming the field, and the same checkpoint re-encoded unchanged still resumes.
+#[test]
+fn checkpoints_of_other_numerics_are_refused() {
+    use sph_integrators::Checkpoint;
+    let dir = scratch("numerics");
+    let text_scene = "dim = 2\ndx = 0.05\nkernel = \"wendland_c2\"\ndt = 2e-3\nt_end = 0.02\n\
+        schemes = [\"euler\"]\n\
+        [[fluid]]\nshape = \"box\"\nmin = [0.0, 0.0]\nmax = [0.4, 0.3]\nhydrostatic = true\n\
+        [[wall]]\nmin = [0.0, 0.0]\nmax = [0.4, 0.5]\nopen = [\"+y\"]\n\
+        [free_surface]\n\
+        [effects]\ngravity = [0.0, -9.81, 0.0]\n";
+    let s = scene(&dir, "c", text_scene);
+    let out = dir.join("o");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["run", s.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        dgsph(&args)
+    };
+    let o = run(&["--checkpoint-every", "3", "--t-end", "0.01"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let ck = out.join("c_euler.checkpoint");
+    let good = Checkpoint::decode(&std::fs::read(&ck).unwrap()).unwrap();
+    let meta: serde_json::Value = serde_json::from_str(&good.meta).unwrap();
+    let numerics = meta["numerics"]
+        .as_str()
+        .expect("the checkpoint records its numerics");
+    assert!(numerics.contains("Hyperviscosity"), "{numerics}");
+    let with_meta = |meta: &serde_json::Value| {
+        let mut c = good.clone();
+        c.meta = serde_json::to_string(meta).unwrap();
+        std::fs::write(&ck, c.encode()).unwrap();
+    };
+    let resume = || run(&["--resume", "--t-end", "0.02"]);
+    // Another build's default: twice the hyperviscosity.
+    let speed = numerics
+        .split("speed: ")
+        .nth(1)
+        .and_then(|r| r.split([',', ' ']).next())
+        .expect("a hyperviscous speed");
+    let doubled = 2.0 * speed.parse::<f64>().unwrap();
+    let mut other = meta.clone();
+    other["numerics"] = numerics.replacen(speed, &format!("{doubled:?}"), 1).into();
+    with_meta(&other);
+    let o = resume();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    println!("{}", text(&o));
+    assert!(
+        text(&o).contains("a default changed") && text(&o).contains("speed"),
+        "{}",
+        text(&o)
+    );
+    // A build that did not record them.
+    let mut old = meta.clone();
+    old.as_object_mut().unwrap().remove("numerics");
+    with_meta(&old);
+    let o = resume();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("did not record its resolved numerics"),
+        "{}",
+        text(&o)
+    );
+    // The record as written: resumes.
+    with_meta(&meta);
+    let o = resume();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -606,6 +606,28 @@ impl Scene {
         config
     }
 
+    /// What a run of this scene resolves its numerics to, as text: its [`SimConfig`] less how the
+    /// linear systems are solved and what is recorded (keys [`Self::resume_differences`] lets
+    /// differ), the automatic step with the viscosity its limit keeps, and the step's end rule
+    /// ([`END_STEPS`](crate::run::END_STEPS)). A checkpoint records it and a run resumes only
+    /// where this build resolves the same, so a default changed between builds cannot change the
+    /// physics mid-run.
+    pub fn resolved_numerics(&self) -> String {
+        let mut c = self.sim_config();
+        let plain = SimConfig::new(c.kernel, c.h);
+        c.solver = plain.solver;
+        c.solve = plain.solve;
+        c.warm_start = plain.warm_start;
+        c.reorder_every = plain.reorder_every;
+        c.diagnostics = plain.diagnostics;
+        let auto = self.auto_time_step();
+        let limit = auto.map(|a| self.limit_viscosity(&a));
+        format!(
+            "{c:?}; time step {auto:?}, limit viscosity {limit:?}, end steps {}",
+            crate::run::END_STEPS
+        )
+    }
+
     /// The periodic axes of `[domain]`, if any.
     pub fn periodic_axes(&self) -> Option<PeriodicAxes> {
         let d = self.domain.as_ref()?;
