@@ -783,9 +783,16 @@ sph_core::dim_tests! {
 /// beyond a flat surface at their depth. On an open lattice tank at rest under gravity, with
 /// the flow defaults' Robin rows, the pressure the first steps solve for is then closer to
 /// `ρ g (H − y)` (RMS over the fluid, largest over four steps; every scheme, 2D and 3D): measured
-/// 0.31 against 0.52 % of ρgH in 2D, 0.49 against 0.64 % in 3D.
+/// 0.31 against 0.52 % of ρgH in 2D, 0.49 against 0.64 % in 3D. Without the default
+/// hyperviscosity, whose damping of the first steps' motion moves the pressure too (in 3D at
+/// `C = 0.2 U`: 0.52 against 0.64 %): the test is about the rows.
 fn completed_band_rows_bring_a_lattice_tanks_pressure_closer_to_hydrostatic<D>() {
-    let text = |complete: bool| open_lattice_tank::<D>(0.008, &format!("complete_band = {complete}"));
+    let text = |complete: bool| {
+        open_lattice_tank::<D>(0.008, &format!("complete_band = {complete}")).replace(
+            "shifting = { coefficient = 2.0 }",
+            "shifting = { coefficient = 2.0 }\nhyperviscosity = { speed = 0.0 }",
+        )
+    };
     for kind in SchemeKind::ALL {
         let error = |complete: bool| {
             let scene = parse_scene("open tank", &text(complete)).unwrap();
@@ -794,6 +801,7 @@ fn completed_band_rows_bring_a_lattice_tanks_pressure_closer_to_hydrostatic<D>()
             sink.column("hydrostatic_error").into_iter().filter(|e| e.is_finite()).fold(0.0, f64::max)
         };
         let (plain, completed) = (error(false), error(true));
+        println!("{} {kind:?}: completed {completed:.5}, plain {plain:.5}", D::NAME);
         assert!(completed < 0.8 * plain, "{kind:?}: completed {completed:.5}, plain {plain:.5}");
     }
 }
