@@ -228,7 +228,9 @@ pub fn check(args: &CheckArgs) -> Result<u8, AppError> {
             "free surface (∇·r < {}{}; p = 0 {})",
             f.div_r_threshold,
             if f.scan { ", or an empty umbrella" } else { "" },
-            if f.zero_pressure_depth > 0.0 {
+            if f.zero_pressure_depth > 0.0 && f.measured_depth {
+                "outside the surface particles, as deep as their truncation says"
+            } else if f.zero_pressure_depth > 0.0 {
                 "half a spacing outside the surface particles"
             } else {
                 "at the surface particles"

@@ -372,6 +372,11 @@ pub struct FreeSurfaceSpec {
     /// have beyond a flat surface at their depth, read as air at `p = 0`, instead of as no
     /// flux into the air. Default: on where the surface rows are Robin rows (`extrapolate`).
     pub complete_band: Option<bool>,
+    /// Put the `p = 0` of each surface particle whose last pressure is positive at the distance
+    /// its truncation says it stands below a flat surface (half a spacing on a lattice's top
+    /// row, more for a particle sunk into the row below, at most one spacing) instead of half a
+    /// spacing for all. Default: on with the Robin rows (`extrapolate`).
+    pub measured_depth: Option<bool>,
 }
 
 /// The pressure-gradient form of the velocity correction.

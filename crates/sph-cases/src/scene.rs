@@ -425,6 +425,7 @@ impl Scene {
                 scan: None,
                 extrapolate: None,
                 complete_band: None,
+                measured_depth: None,
             }),
             pressure: PressureSpec::default(),
             solver: SolverKind::default(),
@@ -546,6 +547,7 @@ impl Scene {
                 scan: f.scan.unwrap_or(flow),
                 zero_pressure_depth: if robin { 0.5 * self.dx } else { 0.0 },
                 complete_band: f.complete_band.unwrap_or(robin),
+                measured_depth: f.measured_depth.unwrap_or(robin),
             }
         });
         // Flow scenes relax their packing by displacements (docs/physics.md, "Density
@@ -1275,6 +1277,14 @@ impl Validator<'_> {
                  (pressure.level_consistent = true): without the level term the symmetric \
                  gradient's Robin rows add energy at impacts (docs/hard-cases.md, \"Flow \
                  numerics\")",
+            );
+        }
+        if s.free_surface.and_then(|f| f.measured_depth) == Some(true)
+            && !c.free_surface.is_some_and(|f| f.zero_pressure_depth > 0.0)
+        {
+            return self.bad(
+                "free_surface.measured_depth",
+                "places the Robin rows' p = 0: it needs them (free_surface.extrapolate = true)",
             );
         }
         if s.solver_tolerance

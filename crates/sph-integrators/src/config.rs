@@ -31,6 +31,14 @@ pub struct FreeSurface {
     /// instead of as a zero flux into the air. Default `false`.
     #[serde(default)]
     pub complete_band: bool,
+    /// With Robin rows (`zero_pressure_depth` > 0): put the `p = 0` of each surface particle
+    /// whose last pressure is positive at the distance its truncation says it stands below a
+    /// flat surface (`sph_operators::surface_depths`: `Δx/2` on a lattice's top row, more for a
+    /// particle sunk into the row below, at most one spacing) instead of at
+    /// `zero_pressure_depth`, which the others keep (where the surface is in tension it breaks
+    /// the Taylor sign condition, and a depth read from its disorder feeds that). Default `false`.
+    #[serde(default)]
+    pub measured_depth: bool,
 }
 
 impl FreeSurface {
@@ -41,6 +49,7 @@ impl FreeSurface {
             scan: false,
             zero_pressure_depth: 0.0,
             complete_band: false,
+            measured_depth: false,
         }
     }
 }

@@ -16,7 +16,7 @@ use sph_operators::{
     CutLattice, SphContext, correction_matrices, deformation_gradient, divergence,
     free_surface_indicator, free_surface_scan, grad_factors, grad_factors_and_values,
     grad_factors_from_squared_distances, gradient, invariants, kernel_sum_excess_near_surface,
-    velocity_gradient,
+    surface_depths, velocity_gradient,
 };
 use sph_pressure::{
     CsrSystem, LinearSolver, SolveInfo, add_level_term, assemble_dg, assemble_ppe,
@@ -321,6 +321,26 @@ pub(crate) fn project<D: Dim>(
             .map_err(|source| StepError::Assembly { step, t, source })?;
         phases.add(Phase::Assembly, clock);
     }
+    if robin > 0.0 {
+        let clock = Instant::now();
+        let depth = &mut e.surface_depth[..nf];
+        let measured = e.config.free_surface.is_some_and(|f| f.measured_depth);
+        let volume = ctx.volumes[0];
+        if measured && e.cut_lattice.as_ref().is_none_or(|(v, _)| *v != volume) {
+            e.cut_lattice = CutLattice::new::<D, _>(ctx.kernel, volume).map(|c| (volume, c));
+        }
+        match e.cut_lattice.as_ref().filter(|_| measured) {
+            Some((_, cut)) => {
+                // Where the surface is in tension its Taylor sign condition fails and the
+                // rows keep half a spacing: measured only where the last pressure is positive.
+                let (flags, last) = (&e.dirichlet, &*pressures);
+                let measure = |i: usize| flags[i] && last[i] > 0.0;
+                surface_depths(&ctx, cut, measure, nf, robin, depth)
+            }
+            None => depth.fill(robin),
+        }
+        phases.add(Phase::FreeSurface, clock);
+    }
     if nf < ctx.len() || robin > 0.0 {
         let clock = Instant::now();
         let ghosts = e
@@ -335,7 +355,7 @@ pub(crate) fn project<D: Dim>(
             &e.wall_grad,
             &e.dirichlet,
             &e.corrections,
-            robin,
+            (robin > 0.0).then(|| &e.surface_depth[..nf]),
             ghosts,
             &mut e.matrix,
             &mut e.rhs,
@@ -570,7 +590,7 @@ fn correct_density<D: Dim>(
             &e.wall_grad,
             &e.dirichlet,
             &e.corrections,
-            robin,
+            (robin > 0.0).then(|| &e.surface_depth[..nf]),
             ghosts,
             &mut e.matrix,
             &mut e.rhs,
@@ -630,8 +650,8 @@ fn correct_density<D: Dim>(
 }
 
 /// The rows the fluid's equation does not write: the walls' (Neumann data `wall_grad`), when
-/// there are wall particles (from `first_wall` on), and with Robin surface rows (`robin` > 0)
-/// the free-surface particles'. Mirror ghosts (`ghosts`: their sources and the prescribed
+/// there are wall particles (from `first_wall` on), and with Robin surface rows (`robin`: each
+/// fluid particle's depth) the free-surface particles'. Mirror ghosts (`ghosts`: their sources and the prescribed
 /// `∇p/ρ`) are folded onto their sources instead of getting wall rows.
 #[allow(clippy::too_many_arguments)]
 fn boundary_rows<D: Dim, K: Kernel<D>>(
@@ -641,7 +661,7 @@ fn boundary_rows<D: Dim, K: Kernel<D>>(
     wall_grad: &[D::Vector],
     dirichlet: &[bool],
     corrections: &[D::Matrix],
-    robin: f64,
+    robin: Option<&[f64]>,
     ghosts: Option<(&[u32], D::Vector)>,
     matrix: &mut sph_pressure::CsrMatrix,
     rhs: &mut [f64],
@@ -654,8 +674,8 @@ fn boundary_rows<D: Dim, K: Kernel<D>>(
             None => assemble_wall_rows(ctx, first_wall, densities, wall_grad, matrix, rhs)?,
         }
     }
-    if robin > 0.0 {
-        assemble_surface_rows(ctx, dirichlet, corrections, robin, first_wall, matrix, rhs)?;
+    if let Some(depth) = robin {
+        assemble_surface_rows(ctx, dirichlet, corrections, depth, first_wall, matrix, rhs)?;
     }
     Ok(())
 }

@@ -107,6 +107,9 @@ pub(crate) struct Engine<D: Dim> {
     /// particle is in its support (then its excess is not corrected).
     pub(crate) excess: Vec<f64>,
     pub(crate) surface_band: Vec<bool>,
+    /// Where each free-surface particle's Robin row puts `p = 0`: `FreeSurface::zero_pressure_depth`,
+    /// or as its truncation says (`FreeSurface::measured_depth`); fluid only.
+    pub(crate) surface_depth: Vec<f64>,
     /// The cut-lattice table of the band's completed pressure rows and the particle volume it
     /// was built for (rebuilt only when the volume changes).
     pub(crate) cut_lattice: Option<(f64, sph_operators::CutLattice)>,
@@ -254,6 +257,7 @@ impl<D: Dim> Simulation<D> {
             source: Vec::new(),
             excess: Vec::new(),
             surface_band: Vec::new(),
+            surface_depth: Vec::new(),
             cut_lattice: None,
             correction_solver: AnySolver::new(config.solver),
             potential: Vec::new(),
@@ -529,6 +533,12 @@ impl<D: Dim> Simulation<D> {
             || e.config.free_surface.is_some_and(|f| f.complete_band)
         {
             e.surface_band.resize(n, false);
+        }
+        if e.config
+            .free_surface
+            .is_some_and(|f| f.zero_pressure_depth > 0.0)
+        {
+            e.surface_depth.resize(n, 0.0);
         }
         if e.config.density_relaxation > 0.0 {
             e.excess.resize(n, 0.0);

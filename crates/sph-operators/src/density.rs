@@ -256,6 +256,15 @@ impl CutLattice {
         })
     }
 
+    /// How far below the face a lattice particle whose truncation ratio is `ratio` stands, in
+    /// spacings: `k + ½` on row `k` (the face is half a spacing above the face row), linear in
+    /// `R` between the rows like [`CutLattice::reference`]; `None` where `ratio` exceeds the
+    /// face row's `R(0)` (a corner, a thin sheet or a particle standing out of its row).
+    pub fn depth(&self, ratio: f64) -> Option<f64> {
+        let (k, f) = self.locate(ratio, 0.0)?;
+        Some(k as f64 + f + 0.5)
+    }
+
     /// The Shepard sum of a lattice particle whose truncation ratio is `ratio` (`R_i` above),
     /// linear in `R` between the rows; `None` when `ratio` exceeds the face row's `R(0)` (a
     /// corner, a thin sheet or a jet: cut more than a flat face cuts).
@@ -308,5 +317,55 @@ pub fn kernel_sum_excess_near_surface<D: Dim, K: Kernel<D>>(
             Some(reference) => sum / reference - 1.0,
             None => 0.0,
         }
+    });
+}
+
+/// The deepest a [`surface_depths`] reading goes, in spacings: a flagged particle stands at the
+/// surface, so a truncation that reads deeper than one spacing (a concave surface, a closing air
+/// pocket) is held at one.
+pub const MAX_SURFACE_DEPTH: f64 = 1.0;
+
+/// Each free-surface particle's distance to the surface, as its truncation says
+/// ([`CutLattice::depth`], at most [`MAX_SURFACE_DEPTH`] spacings): where a Robin row puts
+/// `p = 0` (`sph_pressure::assemble_surface_rows`),
+///
+/// ```text
+/// δ_i = Δx · min(depth(R_i), 1),   R_i = h |Σ_{j<fluid} V_j ∇W_ij| / Σ_{j<fluid} V_j W_ij
+/// ```
+///
+/// (`Δx = V^{1/D}` of the table's volume), over the particle's fluid neighbours only: a wall
+/// standing dry above the surface is no fluid's support, and counted it would put a particle
+/// beside it deeper than it is. On a lattice with a flat face the top row reads `Δx/2`, where
+/// its fluid ends; a particle sunk into the gaps of the row below reads deeper; one cut more
+/// than a flat face cuts — standing out of its row, or beside a wall — `Δx/2`, and one without
+/// fluid neighbours `fallback`. `out[i]` for the particles with `measure(i)`, `fallback` for
+/// the others. Only the first `out.len()` particles are evaluated.
+pub fn surface_depths<D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    cut: &CutLattice,
+    measure: impl Fn(usize) -> bool + Sync + Send,
+    fluid: usize,
+    fallback: f64,
+    out: &mut [f64],
+) {
+    assert!(out.len() <= ctx.len(), "at most one output per particle");
+    let h = ctx.kernel.h();
+    let dx = ctx.volumes[0].powf(1.0 / D::DIM as f64);
+    gather(out, |i| {
+        if !measure(i) {
+            return fallback;
+        }
+        let (mut sum, mut nu) = (0.0, D::Vector::ZERO);
+        ctx.for_each_pair(i, |p| {
+            if p.j < fluid {
+                sum += ctx.volumes[p.j] * ctx.w_of(&p);
+                nu += p.grad_w * ctx.volumes[p.j];
+            }
+        });
+        if sum <= 0.0 || !sum.is_finite() {
+            return fallback;
+        }
+        cut.depth(h * nu.length() / sum)
+            .map_or(0.5 * dx, |d| d.min(MAX_SURFACE_DEPTH) * dx)
     });
 }

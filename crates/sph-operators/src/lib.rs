@@ -20,6 +20,7 @@
 //! | [`density_summation`], [`density_at_points`] | ρ_a = Σ_b m_b W_ab | Eq. 31 |
 //! | [`kernel_sum_excess`], [`lattice_kernel_sum`] | Σ_j V_j W_ij / S_lattice − 1 | Eq. 31 over a perfect lattice's |
 //! | [`kernel_sum_excess_near_surface`], [`CutLattice`] | Σ_j V_j W_ij / S(R_i) − 1, S(R) a lattice cut by a flat face at the depth the truncation ratio R_i says | Eq. 31 in a free surface's band |
+//! | [`surface_depths`] | δ_i = Δx depth(R_i): a surface particle's distance to the surface from its truncation ratio | where a Robin row puts p = 0 (not in the paper) |
 //! | [`gradient`] | Σ V_j (f_j − f_i) ∇W_ij, or the symmetric Σ V_j (f_i + f_j) ∇W_ij | — |
 //! | [`lattice_gradient_factor`] | β = −(1/D) Σ_k V x_k·∇W(x_k) over a perfect lattice | its lattice error |
 //! | [`divergence`] | Σ V_j (u_j − u_i)·∇W_ij | Eq. 3 source |
@@ -97,8 +98,8 @@ pub use context::{
 pub use correction::{CorrectionStats, correction_matrices};
 pub use deformation::{Invariants, deformation_gradient, invariants, velocity_gradient};
 pub use density::{
-    CutLattice, MissingMoments, density_at_points, density_summation, kernel_sum_excess,
-    kernel_sum_excess_near_surface, lattice_kernel_sum,
+    CutLattice, MAX_SURFACE_DEPTH, MissingMoments, density_at_points, density_summation,
+    kernel_sum_excess, kernel_sum_excess_near_surface, lattice_kernel_sum, surface_depths,
 };
 pub use divergence::divergence;
 pub use free_surface::{free_surface_indicator, free_surface_scan};

@@ -349,6 +349,89 @@ sph_core::dim_tests! {
         }
     }
 
+    /// `surface_depths` on a lattice with a flat face (the block's points with `x_1 ≤ 0`) beside
+    /// a wall (the points with `x_2 ≥ 5 Δx`, standing on above the face): the face row reads
+    /// `Δx/2` to 1e-9 — also next to the wall, whose particles it leaves out (counted, the dry
+    /// ones above the face would read that particle 0.1 Δx deeper or more) — and the row below,
+    /// flagged, its `1.5 Δx` held at `MAX_SURFACE_DEPTH` = 1 spacing, away from the wall. A face
+    /// particle sunk by 0.3 Δx reads deeper than `Δx/2`; one lifted by 0.3 Δx, cut more than a
+    /// flat face cuts, the face row's `Δx/2`. Particles not flagged get the fallback.
+    fn surface_depths_read_a_flat_faces_row_at_half_a_spacing<D>() {
+        for kind in [KernelKind::QuinticSpline, KernelKind::WendlandC2] {
+            let full = Lattice::<D>::with_margin(kind, 1.3, 0.0, 9);
+            let (dx, volume) = (full.dx, full.volumes[0]);
+            let limit = full.interior().iter().map(|&i| full.positions[i].get(1)).fold(0.0, f64::max);
+            let wall_at = 5.0 * dx - 1e-9;
+            let is_wall = |x: &D::Vector| x.get(1) >= wall_at;
+            let fluid_points = (0..full.len()).filter(|&i| full.positions[i].get(0) <= 1e-9 && !is_wall(&full.positions[i]));
+            let walls = (0..full.len()).filter(|&i| is_wall(&full.positions[i]));
+            let keep: Vec<usize> = fluid_points.chain(walls).collect();
+            let fluid = keep.iter().filter(|&&i| !is_wall(&full.positions[i])).count();
+            let base: Vec<D::Vector> = keep.iter().map(|&i| full.positions[i]).collect();
+            let on_row = |x: &D::Vector, row: f64| (x.get(0) - row * dx).abs() < 1e-9;
+            // Far enough from the block's other faces (and the wall is within reach).
+            let inside = |x: &D::Vector| x.get(1) >= -limit && (2..D::DIM).all(|k| x.get(k).abs() <= limit);
+            let cut = CutLattice::new::<D, _>(&full.kernel, volume).unwrap();
+            let h = full.kernel.h();
+            for moved in [0.0, -0.3, 0.3] {
+                // The face particle nearest the origin moved along the face's normal.
+                let target = (0..fluid).find(|&i| base[i].length() < 1e-9).unwrap();
+                let mut lat = Lattice::<D>::with_margin(kind, 1.3, 0.0, 9);
+                lat.positions = base.clone();
+                lat.positions[target] += D::Vector::from_fn(|k| if k == 0 { moved * dx } else { 0.0 });
+                lat.volumes = vec![volume; base.len()];
+                let mut grid = sph_neighbors::CellGrid::<D>::new();
+                use sph_neighbors::NeighborSearch;
+                grid.build(&lat.positions, lat.kernel.support_radius()).unwrap();
+                grid.query(&lat.positions, &mut lat.neighbors);
+                let n = lat.len();
+                let surface: Vec<bool> = (0..n).map(|i| i < fluid && (on_row(&base[i], 0.0) || on_row(&base[i], -1.0))).collect();
+                let mut depth = vec![f64::NAN; fluid];
+                lat.with_ctx(|ctx| surface_depths(ctx, &cut, |i| surface[i], fluid, -1.0, &mut depth));
+                for i in 0..fluid {
+                    let x = &base[i];
+                    if !surface[i] {
+                        assert_eq!(depth[i], -1.0);
+                        continue;
+                    }
+                    if !inside(x) {
+                        continue;
+                    }
+                    let d = depth[i] / dx;
+                    if i == target && moved < 0.0 {
+                        assert!(d > 0.6 && d <= MAX_SURFACE_DEPTH, "{kind:?}: sunk by {moved} Δx reads {d} Δx");
+                    } else if i == target || on_row(x, 0.0) {
+                        if i != target && (lat.positions[i] - lat.positions[target]).length() < lat.kernel.support_radius() {
+                            continue;
+                        }
+                        assert!((d - 0.5).abs() < 1e-9, "{kind:?} {moved}: face row at {:?} reads {d} Δx", x.to_array3());
+                    } else {
+                        let near_wall = x.get(1) + lat.kernel.support_radius() >= wall_at;
+                        if near_wall || (lat.positions[i] - lat.positions[target]).length() < lat.kernel.support_radius() {
+                            continue;
+                        }
+                        assert!((d - MAX_SURFACE_DEPTH).abs() < 1e-9, "{kind:?} {moved}: the row below reads {d} Δx");
+                    }
+                }
+                if moved != 0.0 {
+                    continue;
+                }
+                // Counted, the dry wall would put the face particle next to it deeper.
+                let next = (0..fluid).find(|&i| on_row(&base[i], 0.0) && (base[i].get(1) - 4.0 * dx).abs() < 1e-9 && inside(&base[i])).unwrap();
+                assert!((depth[next] / dx - 0.5).abs() < 1e-9);
+                let naive = lat.with_ctx(|ctx| {
+                    let (mut sum, mut nu) = (0.0, D::Vector::ZERO);
+                    ctx.for_each_pair(next, |p| {
+                        sum += ctx.volumes[p.j] * ctx.w_of(&p);
+                        nu += p.grad_w * ctx.volumes[p.j];
+                    });
+                    cut.depth(h * nu.length() / sum).unwrap()
+                });
+                assert!(naive > 0.6, "{kind:?}: the dry wall counted reads {naive} Δx");
+            }
+        }
+    }
+
     /// On a perfect lattice every first-derivative operator and Morris' Laplacian carry the
     /// kernel gradient's lattice factor `β` exactly: the gradients of a linear field are `β ∇f`,
     /// the divergence of a linear velocity `β ∇·u`, the Laplacian of `|x|²` `2Dβ` (to its regulariser). Wendland C2's

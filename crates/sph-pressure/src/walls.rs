@@ -302,17 +302,17 @@ impl MeanZeroGauge {
 }
 
 /// Overwrites the rows of the free-surface particles (`surface[i]`, `i < rows`) with a Robin
-/// condition that puts `p = 0` a distance `depth` outside the particle instead of at it:
+/// condition that puts `p = 0` a distance `depth[i]` outside the particle instead of at it:
 ///
 /// ```text
-/// p_i + depth · n_i·(∇p)_i = 0,    (∇p)_i = L_i Σ_j V_j (p_j − p_i) ∇W_ij,
+/// p_i + δ_i n_i·(∇p)_i = 0,    (∇p)_i = L_i Σ_j V_j (p_j − p_i) ∇W_ij,
 /// n_i = −ν_i/|ν_i|,   ν_i = L_i Σ_j V_j ∇W_ij
 /// ```
 ///
 /// (`L_i` the renormalisation matrices, so the gradient is exact for linear pressures however
-/// truncated the support; `n_i` the outward normal of the truncated support). A particle of a
-/// lattice whose top row is at `y_s` represents fluid up to `y_s + Δx/2`: with `depth = Δx/2`
-/// a hydrostatic pressure `ρ g (y_s + Δx/2 − y)` solves these rows exactly, where the
+/// truncated the support; `n_i` the outward normal of the truncated support; `δ_i = depth[i]`).
+/// A particle of a lattice whose top row is at `y_s` represents fluid up to `y_s + Δx/2`: with
+/// `δ_i = Δx/2` (what `sph_operators::surface_depths` measures there) a hydrostatic pressure `ρ g (y_s + Δx/2 − y)` solves these rows exactly, where the
 /// Dirichlet row `p_i = 0` shifts the whole column's pressure by `ρ g Δx/2`. A particle with a
 /// symmetric or empty neighbourhood (`ν_i = 0`) keeps `p_i = 0`. The surface pressures stay
 /// unknowns, so the other rows must keep their columns (assemble them without Dirichlet
@@ -321,7 +321,7 @@ pub fn assemble_surface_rows<D: Dim, K: Kernel<D>>(
     ctx: &SphContext<'_, D, K>,
     surface: &[bool],
     corrections: &[D::Matrix],
-    depth: f64,
+    depth: &[f64],
     rows: usize,
     matrix: &mut CsrMatrix,
     rhs: &mut [f64],
@@ -329,6 +329,7 @@ pub fn assemble_surface_rows<D: Dim, K: Kernel<D>>(
     let nl = ctx.neighbors;
     let n = ctx.len();
     assert!(rows <= n && surface.len() >= rows && corrections.len() >= rows);
+    assert!(depth.len() >= rows, "one depth per row");
     assert_eq!(matrix.values.len(), nl.nnz());
     let offsets = &nl.offsets()[..=rows];
     let values = &mut matrix.values[..offsets[rows]];
@@ -354,7 +355,7 @@ pub fn assemble_surface_rows<D: Dim, K: Kernel<D>>(
         let mut sum = 0.0;
         ctx.for_each_pair(i, |p| {
             if p.j != i {
-                let a = depth * ctx.volumes[p.j] * n.dot(l * p.grad_w);
+                let a = depth[i] * ctx.volumes[p.j] * n.dot(l * p.grad_w);
                 row[p.k] = a;
                 sum += a;
             }

@@ -453,6 +453,35 @@ fn flow_scenes_operators_follow_their_boundary() {
     assert_eq!(scale(&c), Some(ShiftScale::Local));
 }
 
+/// The Robin rows' measured depth: on by default where the rows are Robin rows (a flow
+/// scene's free surface), off for the paper's Dirichlet rows; a scene may turn it off, and
+/// turning it on without Robin rows is an error naming the key.
+#[test]
+fn measured_depth_follows_the_robin_rows() {
+    let config = |text: &str| Scene::parse("tank.toml", text).unwrap().sim_config();
+    let f = config(TANK).free_surface.unwrap();
+    assert!(f.zero_pressure_depth > 0.0 && f.measured_depth);
+    let off = TANK.replace(
+        "[free_surface]\n",
+        "[free_surface]\nmeasured_depth = false\n",
+    );
+    assert_ne!(off, TANK);
+    let f = config(&off).free_surface.unwrap();
+    assert!(f.zero_pressure_depth > 0.0 && !f.measured_depth);
+    let dirichlet = TANK.replace("[free_surface]\n", "[free_surface]\nextrapolate = false\n");
+    let f = config(&dirichlet).free_surface.unwrap();
+    assert!(f.zero_pressure_depth == 0.0 && !f.measured_depth);
+    let bad = dirichlet.replace(
+        "extrapolate = false\n",
+        "extrapolate = false\nmeasured_depth = true\n",
+    );
+    let err = Scene::parse("tank.toml", &bad).unwrap_err().to_string();
+    assert!(
+        err.contains("free_surface.measured_depth") && err.contains("extrapolate"),
+        "{err}"
+    );
+}
+
 /// The speed scale `√(|g| H + U₀²)` from the blocks, and the flow scenes' default
 /// hyperviscosity that it scales: with a free surface only, declared values kept, `speed = 0`
 /// none.

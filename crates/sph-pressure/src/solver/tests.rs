@@ -897,7 +897,7 @@ sph_core::dim_tests! {
                     let mut m = CsrMatrix::default();
                     m.resize(nl.nnz());
                     let mut rhs = vec![1.0; n];
-                    assemble_surface_rows(&ctx, &surface, &l, depth, n, &mut m, &mut rhs).unwrap();
+                    assemble_surface_rows(&ctx, &surface, &l, &vec![depth; n], n, &mut m, &mut rhs).unwrap();
                     let mut y = vec![0.0; n];
                     m.matvec(nl.offsets(), nl.indices(), &p, &mut y);
                     let mut sums = vec![0.0; n];
