@@ -325,12 +325,13 @@ pub(crate) fn project<D: Dim>(
         let clock = Instant::now();
         let depth = &mut e.surface_depth[..nf];
         let measured = e.config.free_surface.is_some_and(|f| f.measured_depth);
-        let volume = ctx.volumes[0];
-        if measured && e.cut_lattice.as_ref().is_none_or(|(v, _)| *v != volume) {
-            e.cut_lattice = CutLattice::new::<D, _>(ctx.kernel, volume).map(|c| (volume, c));
-        }
-        match e.cut_lattice.as_ref().filter(|_| measured) {
-            Some((_, cut)) => {
+        let table = if measured {
+            cut_lattice(&ctx, &mut e.cut_lattice)
+        } else {
+            None
+        };
+        match table {
+            Some(cut) => {
                 // Where the surface is in tension its Taylor sign condition fails and the
                 // rows keep half a spacing: measured only where the last pressure is positive.
                 let (flags, last) = (&e.dirichlet, &*pressures);
@@ -695,11 +696,7 @@ fn complete_band_rows<D: Dim, K: Kernel<D>>(
     table: &mut Option<(f64, CutLattice)>,
     matrix: &mut sph_pressure::CsrMatrix,
 ) -> Result<(), sph_pressure::PressureError> {
-    let volume = ctx.volumes[0];
-    if table.as_ref().is_none_or(|(v, _)| *v != volume) {
-        *table = CutLattice::new::<D, K>(ctx.kernel, volume).map(|c| (volume, c));
-    }
-    let Some((_, cut)) = table else {
+    let Some(cut) = cut_lattice(ctx, table) else {
         return Ok(());
     };
     let metric = |i: usize| match a {
@@ -707,6 +704,20 @@ fn complete_band_rows<D: Dim, K: Kernel<D>>(
         Some(a) => a[i].cofactor() * (1.0 / densities[i]),
     };
     complete_cut_rows(ctx, band, surface, cut, &metric, band.len(), matrix)
+}
+
+/// The cut-lattice table for `ctx`'s kernel and particle volume, kept in `table` between calls
+/// and rebuilt when the volume changes; `None` when the support spans more than the table's 15
+/// spacings.
+fn cut_lattice<'t, D: Dim, K: Kernel<D>>(
+    ctx: &SphContext<'_, D, K>,
+    table: &'t mut Option<(f64, CutLattice)>,
+) -> Option<&'t CutLattice> {
+    let volume = ctx.volumes[0];
+    if table.as_ref().is_none_or(|(v, _)| *v != volume) {
+        *table = CutLattice::new::<D, K>(ctx.kernel, volume).map(|c| (volume, c));
+    }
+    table.as_ref().map(|(_, cut)| cut)
 }
 
 /// `band[i]` for the first `band.len()` particles: whether a free-surface particle (`dirichlet`)
